@@ -1,0 +1,254 @@
+// The psub commands: subdivide, stats and demo. Loading, the memory guard and the tables
+// they print live here; the engine itself is in topology/ and stencils/.
+#include "commands.h"
+
+#include "psub/catmark.h"
+#include "psub/rules.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include <unistd.h>
+
+namespace psub::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+struct Loaded {
+    Mesh mesh;
+    CheckedMesh checked;
+};
+
+Loaded load(const std::string& path) {
+    std::vector<std::string> warnings;
+    Loaded loaded{readObj(path, &warnings), {}};
+    loaded.checked = checkMesh(loaded.mesh);
+    warnings.insert(warnings.end(), loaded.checked.warnings.begin(), loaded.checked.warnings.end());
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    return loaded;
+}
+
+std::uint64_t physicalMemory() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGESIZE);
+    return pages > 0 && pageSize > 0 ? std::uint64_t(pages) * std::uint64_t(pageSize) : 0;
+}
+
+// Rough peak bytes of refining to `steps` topological steps: every level's faces and
+// connectivity stay alive (about 44 B per half-edge, 30 B per vertex), plus two position
+// arrays and the OBJ text of the finest level.
+double estimateBytes(const Counts& input, int steps) {
+    double bytes = 0;
+    for (int k = 0; k <= steps; ++k) {
+        const Counts c = countsAfterSteps(input, k);
+        const double halfedges = 2.0 * double(c.edges) - double(c.boundaryEdges);
+        bytes += 44 * halfedges + 30 * double(c.vertices) + 8 * double(c.faces);
+    }
+    const Counts finest = countsAfterSteps(input, steps);
+    return bytes + 2 * 24 * double(finest.vertices) + 40 * double(finest.vertices) +
+           20 * double(finest.faces);
+}
+
+std::string humanBytes(double bytes) {
+    const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+    int unit = 0;
+    while (bytes >= 1024 && unit < 6) bytes /= 1024, ++unit;
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f %s", bytes, units[unit]);
+    return text;
+}
+
+// Throws InputError when `steps` steps would not fit in `limit` bytes (or in 32-bit indices),
+// naming the estimate and the deepest level that fits.
+void guardMemory(const Mesh& mesh, const Counts& input, int steps, std::uint64_t limit) {
+    if (limit == 0) limit = physicalMemory() / 4 * 3;
+    auto fits = [&](int k) {
+        const Counts c = countsAfterSteps(input, k);
+        return estimateBytes(input, k) <= double(limit) &&
+               2.0 * double(c.edges) < double(kNoIndex) && double(c.vertices) < double(kNoIndex);
+    };
+    if (fits(steps)) return;
+    int deepest = -1;
+    while (deepest + 1 < steps && fits(deepest + 1)) ++deepest;
+    throw InputError(mesh.source.path + ": " + std::to_string(steps) +
+                     " refinement steps would need about " + humanBytes(estimateBytes(input, steps)) +
+                     " (limit " + humanBytes(double(limit)) + ", 32-bit indices); " +
+                     (deepest >= 0 ? "at most " + std::to_string(deepest) + " steps fit"
+                                   : std::string("not even the input fits")));
+}
+
+const char* preprocessName(bool preprocessed) { return preprocessed ? "after preprocessing" : "no preprocessing"; }
+
+std::string header(const std::string& input, const std::string& what) {
+    return "written by psub: " + what + "\nfrom " + input;
+}
+
+bool progressWanted() { return ::isatty(2) != 0; }
+
+int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
+    const Faces& faces = loaded.mesh.faces;
+    const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, o.preprocess,
+                                               loaded.mesh.source);
+    const int steps = o.levels + (preprocess ? 1 : 0);
+    guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity), steps, o.maxMemory);
+    const auto start = Clock::now();
+    auto progress = [&](int level, double seconds) {
+        if (progressWanted())
+            std::fprintf(stderr, "psub: level %d/%d topology in %.1f ms\n", level, steps, seconds * 1e3);
+    };
+    const Hierarchy hierarchy = refineTopology(faces, loaded.checked.connectivity, preprocess,
+                                               o.levels, progress);
+    const std::vector<double> positions = refinePositions(hierarchy, loaded.mesh.positions);
+    const Faces& finest = hierarchy.finest().faces;
+    const std::string what = "P-S, " + std::to_string(o.levels) + " steps, " + preprocessName(preprocess);
+    writeFileAtomic(o.output, formatObj(finest, positions, header(o.input, what)));
+    std::printf("%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
+                finest.vertexCount, finest.faceCount(), what.c_str(), msSince(start));
+    return 0;
+}
+
+int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
+    // Catmull-Clark quadruples the faces: estimate it as two P-S-sized steps per level.
+    guardMemory(loaded.mesh, countMesh(loaded.mesh.faces, loaded.checked.connectivity),
+                2 * o.levels, o.maxMemory);
+    const auto start = Clock::now();
+    const std::vector<CatmarkLevel> levels =
+        refineCatmark(loaded.mesh.faces, loaded.mesh.positions, o.levels);
+    const CatmarkLevel& finest = levels.back();
+    const std::string what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + " levels";
+    writeFileAtomic(o.output, formatObj(finest.faces, finest.positions, header(o.input, what)));
+    std::printf("%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
+                finest.faces.vertexCount, finest.faces.faceCount(), what.c_str(), msSince(start));
+    return 0;
+}
+
+// One row of the stats table.
+void printRow(const char* label, const Counts& c, const VertexClasses& classes, double ms,
+              const char* note = "") {
+    std::printf("%-16s %10llu %10llu %10llu %10llu %10llu %8llu %8llu %10.2f  %s\n", label,
+                (unsigned long long)c.vertices, (unsigned long long)c.edges,
+                (unsigned long long)c.faces, (unsigned long long)c.triangles,
+                (unsigned long long)c.quads, (unsigned long long)classes.extraordinary,
+                (unsigned long long)c.boundaryEdges, ms, note);
+}
+
+void printTableHeader(const char* title, const char* timeLabel) {
+    std::printf("%-16s %10s %10s %10s %10s %10s %8s %8s %10s\n", title, "V", "E", "F",
+                "triangles", "quads", "extraord", "bnd edge", timeLabel);
+}
+
+// Prints P-S levels then Catmull-Clark levels with the face counts P-S reaches.
+void printStats(const Loaded& loaded, const Hierarchy& hierarchy, const std::vector<double>& levelMs,
+                std::uint64_t maxFaces) {
+    printTableHeader("P-S", "ms");
+    for (std::size_t k = 0; k < hierarchy.levels.size(); ++k) {
+        const Level& level = hierarchy.levels[k];
+        std::string label = k == 0 ? "input"
+                            : hierarchy.preprocessed && k == 1
+                                ? "preprocessed"
+                                : "level " + std::to_string(k - (hierarchy.preprocessed ? 1 : 0));
+        printRow(label.c_str(), countMesh(level.faces, level.connectivity),
+                 classifyVertices(level.connectivity), levelMs[k]);
+    }
+    int ccLevels = 0;
+    std::uint64_t faces = 0;  // Catmull-Clark level 1 has one quad per face corner
+    for (Index f = 0; f < loaded.mesh.faces.faceCount(); ++f) faces += loaded.mesh.faces.faceSize(f);
+    while (ccLevels < 8 && faces <= maxFaces) ++ccLevels, faces *= 4;
+    std::printf("\n");
+    printTableHeader("Catmull-Clark", "cum. ms");
+    for (int k = 0; k <= ccLevels; ++k) {
+        const auto start = Clock::now();
+        const std::vector<CatmarkLevel> cc = refineCatmark(loaded.mesh.faces, {}, k, false);
+        const double ms = msSince(start);
+        const CatmarkLevel& level = cc.back();
+        std::string note;
+        for (std::size_t j = 1; j < hierarchy.levels.size(); ++j)
+            if (k > 0 && hierarchy.levels[j].faces.faceCount() == level.counts.faces)
+                note = "same F as P-S " + std::string(hierarchy.preprocessed && j == 1
+                                                          ? "preprocessed"
+                                                          : "level " + std::to_string(j - (hierarchy.preprocessed ? 1 : 0)));
+        const Connectivity connectivity = buildConnectivity(level.faces);
+        printRow(("level " + std::to_string(k)).c_str(), level.counts, classifyVertices(connectivity),
+                 ms, note.c_str());
+    }
+}
+
+}  // namespace
+
+std::string dataDir() {
+    if (const char* env = std::getenv("PSUB_DATA_DIR")) return env;
+    namespace fs = std::filesystem;
+    if (fs::exists(fs::path(PSUB_SOURCE_DATA_DIR) / "cow.obj")) return PSUB_SOURCE_DATA_DIR;
+    std::error_code error;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+    return (exe.parent_path().parent_path() / "share" / "psub").string();
+}
+
+int runSubdivide(const SubdivideOptions& options) {
+    const Loaded loaded = load(options.input);
+    return options.scheme == Scheme::PS ? subdividePS(options, loaded) : subdivideCC(options, loaded);
+}
+
+int runStats(const StatsOptions& options) {
+    const Loaded loaded = load(options.input);
+    const Faces& faces = loaded.mesh.faces;
+    const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity,
+                                               options.preprocess, loaded.mesh.source);
+    guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity),
+                options.levels + (preprocess ? 1 : 0), options.maxMemory);
+    std::vector<double> levelMs{0.0};
+    const Hierarchy hierarchy = refineTopology(faces, loaded.checked.connectivity, preprocess,
+                                               options.levels,
+                                               [&](int, double seconds) { levelMs.push_back(seconds * 1e3); });
+    std::printf("%s: %u vertices, %u faces; %s, %d P-S steps\n\n", options.input.c_str(),
+                faces.vertexCount, faces.faceCount(), preprocessName(preprocess), options.levels);
+    printStats(loaded, hierarchy, levelMs, hierarchy.finest().faces.faceCount());
+    return 0;
+}
+
+int runDemo(const DemoOptions& options) {
+    const std::string model = options.model.empty() ? dataDir() + "/cow.obj" : options.model;
+    std::printf("PSub demo: the P-S subdivision scheme (Liu, Yang, Guan) on %s\n\n", model.c_str());
+    const auto start = Clock::now();
+    const Loaded loaded = load(model);
+    const Faces& faces = loaded.mesh.faces;
+    const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, Preprocess::Auto);
+    std::printf("Loaded and checked in %.1f ms. %s\n\n", msSince(start),
+                preprocess ? "Not all quads, so the paired method turns it into quads first."
+                           : "Already P-S input (quads, triangles only on the boundary).");
+    std::vector<double> levelMs{0.0};
+    const Hierarchy hierarchy = refineTopology(faces, loaded.checked.connectivity, preprocess,
+                                               options.levels,
+                                               [&](int, double seconds) { levelMs.push_back(seconds * 1e3); });
+    printStats(loaded, hierarchy, levelMs, hierarchy.finest().faces.faceCount());
+
+    const auto positionsStart = Clock::now();
+    const std::vector<double> positions = refinePositions(hierarchy, loaded.mesh.positions);
+    std::printf("\nP-S positions of all %d levels by the readable rule path: %.1f ms\n",
+                options.levels, msSince(positionsStart));
+    std::printf("Each P-S step doubles the faces; two P-S steps match one Catmull-Clark step.\n");
+    if (!options.outputDir.empty()) {
+        const std::string stem = std::filesystem::path(model).stem().string();
+        const std::string psPath = options.outputDir + "/" + stem + "_ps" + std::to_string(options.levels) + ".obj";
+        writeFileAtomic(psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo")));
+        const std::vector<CatmarkLevel> cc = refineCatmark(faces, loaded.mesh.positions, options.levels / 2);
+        const std::string ccPath = options.outputDir + "/" + stem + "_cc" + std::to_string(options.levels / 2) + ".obj";
+        writeFileAtomic(ccPath, formatObj(cc.back().faces, cc.back().positions, header(model, "Catmull-Clark demo")));
+        std::printf("Wrote %s and %s\n", psPath.c_str(), ccPath.c_str());
+    }
+    std::printf("\nNext:\n"
+                "  psub subdivide %s -o out.obj --levels %d      # refined mesh as OBJ\n"
+                "  psub subdivide %s -o cc.obj --levels %d --scheme cc\n"
+                "  psub stats %s --levels 6\n",
+                model.c_str(), options.levels, model.c_str(), options.levels / 2, model.c_str());
+    return 0;
+}
+
+}  // namespace psub::cli

@@ -1,0 +1,43 @@
+// The psub commands, each a plain function over parsed options (see main.cpp for the CLI).
+#pragma once
+
+#include "psub/topology.h"
+
+#include <cstdint>
+#include <string>
+
+namespace psub::cli {
+
+enum class Scheme { PS, CatmullClark };
+
+struct SubdivideOptions {
+    std::string input, output;
+    int levels = 1;
+    Scheme scheme = Scheme::PS;
+    Preprocess preprocess = Preprocess::Auto;
+    std::uint64_t maxMemory = 0;  // bytes; 0 = default (3/4 of physical memory)
+};
+
+struct StatsOptions {
+    std::string input;
+    int levels = 4;
+    Preprocess preprocess = Preprocess::Auto;
+    std::uint64_t maxMemory = 0;
+};
+
+struct DemoOptions {
+    std::string model;      // empty: the bundled cow
+    int levels = 4;
+    std::string outputDir;  // empty: write nothing
+};
+
+// Each returns the process exit status; bad input throws InputError (exit 1 in main).
+int runSubdivide(const SubdivideOptions& options);
+int runStats(const StatsOptions& options);
+int runDemo(const DemoOptions& options);
+
+// Where the bundled models live: $PSUB_DATA_DIR, else the source tree's data/, else
+// <prefix>/share/psub next to the installed program.
+std::string dataDir();
+
+}  // namespace psub::cli

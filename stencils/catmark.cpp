@@ -1,0 +1,86 @@
+// Catmull-Clark through OpenSubdiv's Far API, for side-by-side comparison with P-S.
+#include "psub/catmark.h"
+
+#include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/topologyRefinerFactory.h>
+
+#include <memory>
+
+namespace psub {
+namespace {
+
+using namespace OpenSubdiv;
+
+struct Point3 {
+    double p[3];
+    void Clear() { p[0] = p[1] = p[2] = 0; }
+    void AddWithWeight(const Point3& src, float weight) {
+        for (int i = 0; i < 3; ++i) p[i] += weight * src.p[i];
+    }
+};
+
+std::unique_ptr<Far::TopologyRefiner> makeRefiner(const Faces& faces) {
+    std::vector<int> sizes(faces.faceCount());
+    for (Index f = 0; f < faces.faceCount(); ++f) sizes[f] = int(faces.faceSize(f));
+    Far::TopologyDescriptor descriptor;
+    descriptor.numVertices = int(faces.vertexCount);
+    descriptor.numFaces = int(faces.faceCount());
+    descriptor.numVertsPerFace = sizes.data();
+    descriptor.vertIndicesPerFace = reinterpret_cast<const Far::Index*>(faces.verts.data());
+    Sdc::Options options;
+    options.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);
+    using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
+    std::unique_ptr<Far::TopologyRefiner> refiner(
+        Factory::Create(descriptor, Factory::Options(Sdc::SCHEME_CATMARK, options)));
+    if (!refiner) throw InputError("OpenSubdiv could not build a Catmull-Clark refiner for this mesh");
+    return refiner;
+}
+
+CatmarkLevel readLevel(const Far::TopologyLevel& level) {
+    CatmarkLevel out;
+    out.faces.vertexCount = Index(level.GetNumVertices());
+    for (int f = 0; f < level.GetNumFaces(); ++f) {
+        const Far::ConstIndexArray corners = level.GetFaceVertices(f);
+        out.faces.addFace({reinterpret_cast<const Index*>(&corners[0]), std::size_t(corners.size())});
+    }
+    out.counts.vertices = Index(level.GetNumVertices());
+    out.counts.edges = Index(level.GetNumEdges());
+    out.counts.faces = Index(level.GetNumFaces());
+    for (int e = 0; e < level.GetNumEdges(); ++e) out.counts.boundaryEdges += level.GetEdgeFaces(e).size() == 1;
+    for (int f = 0; f < level.GetNumFaces(); ++f) {
+        out.counts.triangles += level.GetFaceVertices(f).size() == 3;
+        out.counts.quads += level.GetFaceVertices(f).size() == 4;
+    }
+    return out;
+}
+
+}  // namespace
+
+std::vector<CatmarkLevel> refineCatmark(const Faces& faces, std::span<const double> positions,
+                                        int levels, bool withPositions) {
+    std::unique_ptr<Far::TopologyRefiner> refiner = makeRefiner(faces);
+    Far::TopologyRefiner::UniformOptions options(levels);
+    options.fullTopologyInLastLevel = true;
+    refiner->RefineUniform(options);
+
+    std::vector<CatmarkLevel> out;
+    for (int k = 0; k <= levels; ++k) out.push_back(readLevel(refiner->GetLevel(k)));
+    if (!withPositions) return out;
+    std::vector<Point3> current(faces.vertexCount);
+    for (Index v = 0; v < faces.vertexCount; ++v)
+        for (int i = 0; i < 3; ++i) current[v].p[i] = positions[3 * v + i];
+    out[0].positions.assign(positions.begin(), positions.end());
+    Far::PrimvarRefiner primvar(*refiner);
+    for (int k = 1; k <= levels; ++k) {
+        std::vector<Point3> child(std::size_t(refiner->GetLevel(k).GetNumVertices()));
+        Point3* src = current.data();
+        Point3* dst = child.data();
+        primvar.Interpolate(k, src, dst);
+        for (const Point3& point : child) out[k].positions.insert(out[k].positions.end(), point.p, point.p + 3);
+        current = std::move(child);
+    }
+    return out;
+}
+
+}  // namespace psub

@@ -1,0 +1,195 @@
+// psub/topology.h: meshes and their connectivity. OBJ reading and writing, validation,
+// half-edge connectivity, vertex classification, closed-form counts, the paired-method
+// preprocessing and the topological P-S step, level after level. This layer never computes
+// a refined position; the rules live in psub/rules.h.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace psub {
+
+using Index = std::uint32_t;
+inline constexpr Index kNoIndex = ~Index(0);
+
+// Untrusted input was rejected. what() is one line naming the file, line and element.
+class InputError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Polygon faces over vertices 0..vertexCount-1 in compressed rows: face f is
+// verts[offsets[f] .. offsets[f+1]), counter-clockwise. A face corner is also the half-edge
+// that leaves it: corner h runs from verts[h] to verts[next(h)].
+struct Faces {
+    Index vertexCount = 0;
+    std::vector<Index> offsets{0};  // faceCount()+1 entries, offsets[0] == 0
+    std::vector<Index> verts;
+
+    Index faceCount() const { return Index(offsets.size() - 1); }
+    Index faceSize(Index f) const { return offsets[f + 1] - offsets[f]; }
+    std::span<const Index> face(Index f) const {
+        return {verts.data() + offsets[f], faceSize(f)};
+    }
+    void addFace(std::span<const Index> corners) {
+        verts.insert(verts.end(), corners.begin(), corners.end());
+        offsets.push_back(Index(verts.size()));
+    }
+};
+
+// Where a mesh came from, so that errors can name the file and line. Empty lines vectors
+// mean "built in memory": errors then name elements only.
+struct Source {
+    std::string path;
+    std::vector<std::uint32_t> vertexLine;  // 1-based line of each `v`
+    std::vector<std::uint32_t> faceLine;    // 1-based line of each `f`
+};
+
+// A polygon mesh: faces plus xyz positions (3 doubles per vertex).
+struct Mesh {
+    Faces faces;
+    std::vector<double> positions;
+    Source source;
+};
+
+// "FILE:LINE: face N" / "face N": messages number faces and vertices from 1, as OBJ does.
+std::string describeFace(const Source& source, Index f);
+std::string describeVertex(const Source& source, Index v);
+
+// ---------------------------------------------------------------------------------------
+// OBJ I/O
+
+// Reads `v` and `f` statements (face entries i, i/t, i/t/n, i//n, negative indices),
+// ignores vt vn vp g o s usemtl mtllib l and comments, accepts CRLF and `\` continuation
+// lines. Throws InputError naming file and line for unreadable files, malformed numbers,
+// non-finite coordinates and indices that are zero or out of range. Unknown statements are
+// reported once each in `warnings` (if given) and skipped.
+Mesh readObj(const std::string& path, std::vector<std::string>* warnings = nullptr);
+Mesh parseObj(std::string_view text, const std::string& name,
+              std::vector<std::string>* warnings = nullptr);
+
+// Serialises a mesh as OBJ text: `header` lines as comments, then `v` and `f` lines.
+std::string formatObj(const Faces& faces, std::span<const double> positions,
+                      std::string_view header = {});
+
+// Writes `text` to `path` atomically: a temporary file beside it, flushed, then renamed.
+// On any failure no file is left at `path` (nor a temporary) and InputError is thrown.
+void writeFileAtomic(const std::string& path, std::string_view text);
+
+// ---------------------------------------------------------------------------------------
+// Connectivity
+
+enum class VertexKind : std::uint8_t {
+    Interior,     // manifold, one closed fan of faces
+    Boundary,     // manifold, one open fan (on at least one boundary edge)
+    NonManifold,  // two or more fans meet here (bow-tie / pinch): retained like boundary
+    Unused,       // no face uses it: kept and carried unchanged
+};
+
+// Half-edge connectivity built in linear time from Faces (counting sorts, no per-edge
+// allocation). Half-edge h is face corner h of Faces::verts.
+struct Connectivity {
+    std::vector<Index> faceOf;        // per half-edge: the face holding it
+    std::vector<Index> next;          // per half-edge: next corner of the same face
+    std::vector<Index> twin;          // per half-edge: opposite half-edge, kNoIndex on boundary
+    std::vector<Index> edgeOf;        // per half-edge: its undirected edge
+    std::vector<Index> edgeHalfedge;  // per edge: the first half-edge met in face order
+    std::vector<Index> outOffsets;    // per vertex: CSR rows into outgoing
+    std::vector<Index> outgoing;      // half-edges leaving each vertex, in face order
+    std::vector<Index> valence;       // per vertex: number of incident edges
+    std::vector<VertexKind> kind;     // per vertex
+    Index boundaryEdgeCount = 0;
+
+    Index edgeCount() const { return Index(edgeHalfedge.size()); }
+    std::span<const Index> outgoingOf(Index v) const {
+        return {outgoing.data() + outOffsets[v], outOffsets[v + 1] - outOffsets[v]};
+    }
+};
+
+// Builds connectivity. Throws InputError (naming the face, the edge and, through `source`,
+// the line) on an edge used by more than two faces or by two faces in the same direction.
+// Faces must already be well formed (see validateFaces).
+Connectivity buildConnectivity(const Faces& faces, const Source& source = {});
+
+// ---------------------------------------------------------------------------------------
+// Validation (SPEC.md "Bad input")
+
+struct CheckedMesh {
+    Connectivity connectivity;
+    std::vector<std::string> warnings;  // unused and non-manifold vertices
+};
+
+// Checks faces (at least one, at least 3 corners, no repeated vertex, indices in range) and
+// positions (finite, 3 per vertex), builds connectivity (manifold edges, consistent
+// orientation). Throws InputError naming the first defect; returns warnings for what SPEC.md
+// accepts (unused vertices, non-manifold vertices).
+CheckedMesh checkMesh(const Mesh& mesh);
+void validateFaces(const Faces& faces, const Source& source = {});
+
+// ---------------------------------------------------------------------------------------
+// P-S topology
+
+enum class Preprocess { Auto, Always, Never };
+
+// First face that keeps a mesh from being legal P-S input (faces are quads, or triangles
+// with at least one boundary edge), or kNoIndex when it is legal.
+Index firstNonPSFace(const Faces& faces, const Connectivity& connectivity);
+
+// Resolves Preprocess::Auto; throws InputError for Never on a mesh that is not P-S input.
+bool needsPreprocessing(const Faces& faces, const Connectivity& connectivity, Preprocess mode,
+                        const Source& source = {});
+
+// One topological step, shared by the paired method and P-S: vertex v keeps index v, face f
+// gets vertex vertexCount+f; the edges met first in face order, each from the half-edge a->b
+// of face f, become [a, F(g), b, F(f)] (interior, g holds b->a) or [a, b, F(f)] (boundary).
+Faces refineFaces(const Faces& faces, const Connectivity& connectivity);
+
+struct Level {
+    Faces faces;
+    Connectivity connectivity;
+};
+
+// The levels of a refinement: levels[0] is the input; when `preprocessed`, levels[1] is the
+// paired-method quad mesh; every further level is one P-S step.
+struct Hierarchy {
+    std::vector<Level> levels;
+    bool preprocessed = false;
+
+    int psSteps() const { return int(levels.size()) - 1 - (preprocessed ? 1 : 0); }
+    const Level& finest() const { return levels.back(); }
+};
+
+// Refines `steps` P-S steps after optional preprocessing. `onLevel(levelIndex, seconds)` is
+// called after each level is built (progress and timing), when given.
+Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess, int steps,
+                         const std::function<void(int level, double seconds)>& onLevel = {});
+
+// ---------------------------------------------------------------------------------------
+// Counts and classification
+
+struct Counts {
+    std::uint64_t vertices = 0, edges = 0, faces = 0;
+    std::uint64_t triangles = 0, quads = 0, boundaryEdges = 0;
+};
+
+// Counts read off a mesh.
+Counts countMesh(const Faces& faces, const Connectivity& connectivity);
+
+// Closed form: counts after `steps` topological steps (paired or P-S) of a mesh with counts
+// `c`: V' = V + F, E' = 2E, F' = E, boundary edges and triangles' = Eb, quads' = E - Eb.
+Counts countsAfterSteps(const Counts& c, int steps);
+
+struct VertexClasses {
+    std::uint64_t regular = 0, extraordinary = 0, boundary = 0, nonManifold = 0, unused = 0;
+};
+
+// Regular: interior of valence 4 or boundary of valence 2 or 3. Extraordinary: every other
+// used vertex (non-manifold vertices included). Unused vertices are neither.
+VertexClasses classifyVertices(const Connectivity& connectivity);
+
+}  // namespace psub

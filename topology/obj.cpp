@@ -1,0 +1,249 @@
+// OBJ reading (fast, line-accurate errors) and writing (atomic: temporary file + rename).
+#include "psub/topology.h"
+
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <set>
+#include <string>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace psub {
+namespace {
+
+bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+
+std::string_view skipSpace(std::string_view s) {
+    std::size_t i = 0;
+    while (i < s.size() && isSpace(s[i])) ++i;
+    return s.substr(i);
+}
+
+std::string_view nextToken(std::string_view& s) {
+    s = skipSpace(s);
+    std::size_t i = 0;
+    while (i < s.size() && !isSpace(s[i])) ++i;
+    std::string_view token = s.substr(0, i);
+    s = s.substr(i);
+    return token;
+}
+
+std::string at(const std::string& name, std::uint32_t line) {
+    return name + ":" + std::to_string(line) + ": ";
+}
+
+// Parses one OBJ statement at a time; keeps the state that relative indices need.
+class ObjParser {
+public:
+    ObjParser(const std::string& name, std::vector<std::string>* warnings)
+        : name_(name), warnings_(warnings) {
+        mesh_.source.path = name;
+    }
+
+    void statement(std::string_view line, std::uint32_t lineNo) {
+        line = skipSpace(line);
+        if (line.empty() || line[0] == '#') return;
+        std::string_view keyword = nextToken(line);
+        if (keyword == "v") return vertex(line, lineNo);
+        if (keyword == "f") return face(line, lineNo);
+        static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "g", "o", "s",
+                                                           "usemtl", "mtllib", "l"};
+        if (ignored.count(keyword)) return;
+        if (warnings_ && unknown_.insert(std::string(keyword)).second)
+            warnings_->push_back(at(name_, lineNo) + "ignoring unknown statement '" +
+                                 std::string(keyword) + "'");
+    }
+
+    Mesh finish() {
+        const Index vertexCount = Index(mesh_.positions.size() / 3);
+        mesh_.faces.vertexCount = vertexCount;
+        for (Index f = 0; f < mesh_.faces.faceCount(); ++f)
+            for (Index v : mesh_.faces.face(f))
+                if (v >= vertexCount)
+                    throw InputError(describeFace(mesh_.source, f) + ": vertex index " +
+                                     std::to_string(std::uint64_t(v) + 1) +
+                                     " is out of range (the file has " +
+                                     std::to_string(vertexCount) + " vertices)");
+        return std::move(mesh_);
+    }
+
+private:
+    void vertex(std::string_view rest, std::uint32_t lineNo) {
+        const std::size_t v = mesh_.positions.size() / 3;
+        for (int axis = 0; axis < 3; ++axis) {
+            std::string_view token = nextToken(rest);
+            if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+            double value = 0;
+            auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+            if (token.empty() || ec != std::errc() || end != token.data() + token.size())
+                throw InputError(at(name_, lineNo) + "vertex " + std::to_string(v + 1) +
+                                 ": expected 3 numbers, got '" + std::string(token) + "'");
+            if (!std::isfinite(value))
+                throw InputError(at(name_, lineNo) + "vertex " + std::to_string(v + 1) +
+                                 ": coordinate " + "xyz"[axis] + " is not finite ('" +
+                                 std::string(token) + "')");
+            mesh_.positions.push_back(value);
+        }
+        mesh_.source.vertexLine.push_back(lineNo);
+    }
+
+    void face(std::string_view rest, std::uint32_t lineNo) {
+        const std::int64_t seen = std::int64_t(mesh_.positions.size() / 3);
+        const Index f = mesh_.faces.faceCount();
+        corners_.clear();
+        for (std::string_view token = nextToken(rest); !token.empty(); token = nextToken(rest)) {
+            std::int64_t index = 0;
+            auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), index);
+            const bool tailOk = end == token.data() + token.size() || *end == '/';
+            if (ec != std::errc() || !tailOk)
+                throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
+                                 ": bad vertex reference '" + std::string(token) + "'");
+            if (index == 0)
+                throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
+                                 ": vertex index 0 (OBJ indices start at 1)");
+            if (index < 0 && seen + index < 0)
+                throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
+                                 ": relative index " + std::to_string(index) +
+                                 " points before the first vertex (" + std::to_string(seen) +
+                                 " vertices so far)");
+            const std::int64_t resolved = index < 0 ? seen + index : index - 1;
+            if (resolved >= std::int64_t(kNoIndex))
+                throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
+                                 ": vertex index " + std::string(token) + " is too large");
+            corners_.push_back(Index(resolved));
+        }
+        mesh_.faces.addFace(corners_);
+        mesh_.source.faceLine.push_back(lineNo);
+    }
+
+    const std::string& name_;
+    std::vector<std::string>* warnings_;
+    std::set<std::string> unknown_;
+    std::vector<Index> corners_;
+    Mesh mesh_;
+};
+
+}  // namespace
+
+std::string describeFace(const Source& source, Index f) {
+    const std::string name = "face " + std::to_string(std::uint64_t(f) + 1);
+    if (f < source.faceLine.size()) return at(source.path, source.faceLine[f]) + name;
+    return (source.path.empty() ? "" : source.path + ": ") + name;
+}
+
+std::string describeVertex(const Source& source, Index v) {
+    const std::string name = "vertex " + std::to_string(std::uint64_t(v) + 1);
+    if (v < source.vertexLine.size()) return at(source.path, source.vertexLine[v]) + name;
+    return (source.path.empty() ? "" : source.path + ": ") + name;
+}
+
+Mesh parseObj(std::string_view text, const std::string& name, std::vector<std::string>* warnings) {
+    ObjParser parser(name, warnings);
+    std::string joined;  // a statement continued over several lines with a trailing '\'
+    std::uint32_t lineNo = 0, joinedLine = 0;
+    while (!text.empty()) {
+        const std::size_t eol = text.find('\n');
+        std::string_view line = text.substr(0, eol);
+        text = eol == std::string_view::npos ? std::string_view() : text.substr(eol + 1);
+        ++lineNo;
+        while (!line.empty() && isSpace(line.back())) line.remove_suffix(1);
+        const bool continues = !line.empty() && line.back() == '\\';
+        if (continues || !joined.empty()) {
+            if (joined.empty()) joinedLine = lineNo;
+            joined.append(line.substr(0, line.size() - (continues ? 1 : 0)));
+            joined.push_back(' ');
+            if (continues && !text.empty()) continue;
+            parser.statement(joined, joinedLine);
+            joined.clear();
+            continue;
+        }
+        parser.statement(line, lineNo);
+    }
+    return parser.finish();
+}
+
+Mesh readObj(const std::string& path, std::vector<std::string>* warnings) {
+    std::FILE* file = std::fopen(path.c_str(), "rb");
+    if (!file) throw InputError(path + ": cannot open: " + std::strerror(errno));
+    std::string text;
+    char buffer[1 << 16];
+    std::size_t got = 0;
+    while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) text.append(buffer, got);
+    const bool failed = std::ferror(file);
+    const int error = errno;
+    std::fclose(file);
+    if (failed) throw InputError(path + ": cannot read: " + std::strerror(error));
+    return parseObj(text, path, warnings);
+}
+
+std::string formatObj(const Faces& faces, std::span<const double> positions,
+                      std::string_view header) {
+    std::string out;
+    out.reserve(positions.size() * 12 + faces.verts.size() * 8 + header.size() + 64);
+    while (!header.empty()) {
+        const std::size_t eol = header.find('\n');
+        out += "# ";
+        out += header.substr(0, eol);
+        out += '\n';
+        header = eol == std::string_view::npos ? std::string_view() : header.substr(eol + 1);
+    }
+    char buf[64];
+    for (std::size_t i = 0; i + 2 < positions.size(); i += 3) {
+        out += 'v';
+        for (int axis = 0; axis < 3; ++axis) {
+            buf[0] = ' ';
+            char* end = std::to_chars(buf + 1, buf + sizeof buf, positions[i + axis],
+                                      std::chars_format::general, 9).ptr;
+            out.append(buf, end);
+        }
+        out += '\n';
+    }
+    for (Index f = 0; f < faces.faceCount(); ++f) {
+        out += 'f';
+        for (Index v : faces.face(f)) {
+            buf[0] = ' ';
+            char* end = std::to_chars(buf + 1, buf + sizeof buf, std::uint64_t(v) + 1).ptr;
+            out.append(buf, end);
+        }
+        out += '\n';
+    }
+    return out;
+}
+
+void writeFileAtomic(const std::string& path, std::string_view text) {
+    std::string temp = path + ".tmp-XXXXXX";
+    const int fd = ::mkstemp(temp.data());
+    if (fd < 0) throw InputError(path + ": cannot write: " + std::strerror(errno));
+    auto fail = [&](const char* what) {
+        const int error = errno;
+        ::close(fd);
+        ::unlink(temp.c_str());
+        throw InputError(path + ": cannot " + what + ": " + std::strerror(error));
+    };
+    for (std::size_t done = 0; done < text.size();) {
+        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) fail("write");
+        done += std::size_t(n);
+    }
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    if (::fchmod(fd, 0666 & ~mask) != 0 || ::fsync(fd) != 0) fail("write");
+    if (::close(fd) != 0) {
+        const int error = errno;
+        ::unlink(temp.c_str());
+        throw InputError(path + ": cannot write: " + std::strerror(error));
+    }
+    if (std::rename(temp.c_str(), path.c_str()) != 0) {
+        const int error = errno;
+        ::unlink(temp.c_str());
+        throw InputError(path + ": cannot write: " + std::strerror(error));
+    }
+}
+
+}  // namespace psub
