@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -32,6 +33,7 @@ Loaded load(const std::string& path) {
     Loaded loaded{readObj(path, &warnings), {}};
     loaded.checked = checkMesh(loaded.mesh);
     warnings.insert(warnings.end(), loaded.checked.warnings.begin(), loaded.checked.warnings.end());
+    std::fflush(stdout);
     for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
     return loaded;
 }
@@ -107,7 +109,7 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
                                                o.levels, progress);
     const std::vector<double> positions = refinePositions(hierarchy, loaded.mesh.positions);
     const Faces& finest = hierarchy.finest().faces;
-    const std::string what = "P-S, " + std::to_string(o.levels) + " steps, " + preprocessName(preprocess);
+    const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") + preprocessName(preprocess);
     writeFileAtomic(o.output, formatObj(finest, positions, header(o.input, what)));
     std::printf("%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), msSince(start));
@@ -180,6 +182,70 @@ void printStats(const Loaded& loaded, const Hierarchy& hierarchy, const std::vec
     }
 }
 
+struct Shape {
+    double volume = 0, diagonal = 0;
+};
+
+// Signed volume (fan-triangulated faces, divergence theorem) and bounding-box diagonal.
+Shape measureShape(const Faces& faces, std::span<const double> p) {
+    Shape shape;
+    for (Index f = 0; f < faces.faceCount(); ++f) {
+        const auto c = faces.face(f);
+        const double* a = &p[3 * c[0]];
+        for (std::size_t i = 1; i + 1 < c.size(); ++i) {
+            const double* b = &p[3 * c[i]];
+            const double* d = &p[3 * c[i + 1]];
+            shape.volume += (a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0]) +
+                             a[2] * (b[0] * d[1] - b[1] * d[0])) / 6;
+        }
+    }
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        lo[i % 3] = std::min(lo[i % 3], p[i]);
+        hi[i % 3] = std::max(hi[i % 3], p[i]);
+    }
+    for (int axis = 0; axis < 3; ++axis) shape.diagonal += (hi[axis] - lo[axis]) * (hi[axis] - lo[axis]);
+    shape.diagonal = std::sqrt(shape.diagonal);
+    return shape;
+}
+
+// For each Catmull-Clark level with a P-S level of the same face count: volume and size.
+void printShapes(const Loaded& loaded, const Hierarchy& hierarchy,
+                 const std::vector<std::vector<double>>& positions) {
+    int ccLevels = 0;
+    while (hierarchy.levels.size() > std::size_t(2 * ccLevels + (hierarchy.preprocessed ? 2 : 1))) ++ccLevels;
+    const std::vector<CatmarkLevel> cc = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, ccLevels);
+    const Shape input = measureShape(loaded.mesh.faces, loaded.mesh.positions);
+    std::printf("\nShape at equal face counts (input volume %.4g, box diagonal %.4g):\n", input.volume,
+                input.diagonal);
+    std::printf("%10s  %-14s %12s %10s   %-8s %12s %10s   %s\n", "faces", "P-S", "volume", "diagonal",
+                "CC", "volume", "diagonal", "P-S/CC volume");
+    for (int k = 1; k <= ccLevels; ++k)
+        for (std::size_t j = 1; j < hierarchy.levels.size(); ++j) {
+            if (hierarchy.levels[j].faces.faceCount() != cc[k].counts.faces) continue;
+            const Shape ps = measureShape(hierarchy.levels[j].faces, positions[j]);
+            const Shape c = measureShape(cc[k].faces, cc[k].positions);
+            const std::string label = "level " + std::to_string(j - (hierarchy.preprocessed ? 1 : 0));
+            std::printf("%10u  %-14s %12.4g %10.4g   level %-2d %12.4g %10.4g   %.3f\n",
+                        cc[k].faces.faceCount(), label.c_str(), ps.volume, ps.diagonal, k, c.volume,
+                        c.diagonal, ps.volume / c.volume);
+        }
+    std::printf("A P-S/CC volume below 1 means P-S shrinks the model more than Catmull-Clark "
+                "(SPEC.md, \"The paper's claims\").\n");
+}
+
+void writeDemoMeshes(const DemoOptions& options, const std::string& model, const Loaded& loaded,
+                     const Hierarchy& hierarchy, const std::vector<double>& positions) {
+    const std::string stem = std::filesystem::path(model).stem().string();
+    const int ccLevels = std::max(1, options.levels / 2);
+    const std::string psPath = options.outputDir + "/" + stem + "_ps" + std::to_string(options.levels) + ".obj";
+    writeFileAtomic(psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo")));
+    const std::vector<CatmarkLevel> cc = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, ccLevels);
+    const std::string ccPath = options.outputDir + "/" + stem + "_cc" + std::to_string(ccLevels) + ".obj";
+    writeFileAtomic(ccPath, formatObj(cc.back().faces, cc.back().positions, header(model, "Catmull-Clark demo")));
+    std::printf("\nWrote %s and %s\n", psPath.c_str(), ccPath.c_str());
+}
+
 }  // namespace
 
 std::string dataDir() {
@@ -197,18 +263,22 @@ int runSubdivide(const SubdivideOptions& options) {
 }
 
 int runStats(const StatsOptions& options) {
+    const auto loadStart = Clock::now();
     const Loaded loaded = load(options.input);
+    const double loadMs = msSince(loadStart);
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity,
                                                options.preprocess, loaded.mesh.source);
     guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity),
                 options.levels + (preprocess ? 1 : 0), options.maxMemory);
-    std::vector<double> levelMs{0.0};
+    std::vector<double> levelMs{loadMs};
     const Hierarchy hierarchy = refineTopology(faces, loaded.checked.connectivity, preprocess,
                                                options.levels,
                                                [&](int, double seconds) { levelMs.push_back(seconds * 1e3); });
-    std::printf("%s: %u vertices, %u faces; %s, %d P-S steps\n\n", options.input.c_str(),
-                faces.vertexCount, faces.faceCount(), preprocessName(preprocess), options.levels);
+    std::printf("%s: %u vertices, %u faces; %s, %d P-S steps (input ms: read and check; "
+                "level ms: topology)\n\n",
+                options.input.c_str(), faces.vertexCount, faces.faceCount(),
+                preprocessName(preprocess), options.levels);
     printStats(loaded, hierarchy, levelMs, hierarchy.finest().faces.faceCount());
     return 0;
 }
@@ -230,24 +300,20 @@ int runDemo(const DemoOptions& options) {
     printStats(loaded, hierarchy, levelMs, hierarchy.finest().faces.faceCount());
 
     const auto positionsStart = Clock::now();
-    const std::vector<double> positions = refinePositions(hierarchy, loaded.mesh.positions);
-    std::printf("\nP-S positions of all %d levels by the readable rule path: %.1f ms\n",
-                options.levels, msSince(positionsStart));
-    std::printf("Each P-S step doubles the faces; two P-S steps match one Catmull-Clark step.\n");
-    if (!options.outputDir.empty()) {
-        const std::string stem = std::filesystem::path(model).stem().string();
-        const std::string psPath = options.outputDir + "/" + stem + "_ps" + std::to_string(options.levels) + ".obj";
-        writeFileAtomic(psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo")));
-        const std::vector<CatmarkLevel> cc = refineCatmark(faces, loaded.mesh.positions, options.levels / 2);
-        const std::string ccPath = options.outputDir + "/" + stem + "_cc" + std::to_string(options.levels / 2) + ".obj";
-        writeFileAtomic(ccPath, formatObj(cc.back().faces, cc.back().positions, header(model, "Catmull-Clark demo")));
-        std::printf("Wrote %s and %s\n", psPath.c_str(), ccPath.c_str());
-    }
+    std::vector<std::vector<double>> positions{loaded.mesh.positions};
+    for (std::size_t k = 1; k < hierarchy.levels.size(); ++k)
+        positions.push_back(refineLevelPositions(hierarchy, k, positions.back()));
+    std::printf("\nP-S positions of every level by the readable rule path: %.1f ms\n",
+                msSince(positionsStart));
+    printShapes(loaded, hierarchy, positions);
+    if (!options.outputDir.empty()) writeDemoMeshes(options, model, loaded, hierarchy, positions.back());
     std::printf("\nNext:\n"
                 "  psub subdivide %s -o out.obj --levels %d      # refined mesh as OBJ\n"
                 "  psub subdivide %s -o cc.obj --levels %d --scheme cc\n"
-                "  psub stats %s --levels 6\n",
-                model.c_str(), options.levels, model.c_str(), options.levels / 2, model.c_str());
+                "  psub stats %s --levels 6\n"
+                "  psub --help\n",
+                model.c_str(), options.levels, model.c_str(), std::max(1, options.levels / 2),
+                model.c_str());
     return 0;
 }
 

@@ -19,12 +19,26 @@ const std::map<std::string, Scheme> kScheme = {{"ps", Scheme::PS}, {"cc", Scheme
 // Levels are capped so closed-form counts stay in 64 bits; the memory guard stops far sooner.
 constexpr int kMaxLevels = 30;
 
+// A choice among named values: shown by name in --help, stored as the enum.
+template <class Enum>
+CLI::Option* addChoice(CLI::App* command, const std::string& name, Enum& target,
+                       const std::map<std::string, Enum>& choices, const std::string& help,
+                       const std::string& defaultName) {
+    std::vector<std::string> names;
+    for (const auto& entry : choices) names.push_back(entry.first);
+    return command
+        ->add_option_function<std::string>(
+            name, [&target, &choices](const std::string& value) { target = choices.at(value); }, help)
+        ->check(CLI::IsMember(names))
+        ->type_name("TEXT")
+        ->default_str(defaultName);
+}
+
 void addPreprocess(CLI::App* command, Preprocess& target) {
-    command->add_option("--preprocess", target,
-                        "auto: apply the paired method when a face is not a quad (triangles on "
-                        "the boundary are legal P-S input); always; never (error if needed)")
-        ->transform(CLI::CheckedTransformer(kPreprocess, CLI::ignore_case))
-        ->default_str("auto");
+    addChoice(command, "--preprocess", target, kPreprocess,
+              "auto: apply the paired method when a face is not a quad (triangles on the "
+              "boundary are legal P-S input); always; never (error if it is needed)",
+              "auto");
 }
 
 void addMaxMemory(CLI::App* command, std::uint64_t& target) {
@@ -45,14 +59,14 @@ int main(int argc, char** argv) {
 
     SubdivideOptions subdivide;
     CLI::App* sub = app.add_subcommand("subdivide", "Refine a mesh and write it as OBJ");
-    sub->add_option("input", subdivide.input, "input mesh (.obj)")->required()->check(CLI::ExistingFile);
+    sub->add_option("input", subdivide.input, "input mesh (.obj)")->required();
     sub->add_option("-o,--output", subdivide.output, "output mesh (.obj), written atomically")->required();
     sub->add_option("-l,--levels", subdivide.levels,
                     "refinement steps (P-S steps after any preprocessing; 0 writes the "
                     "preprocessed mesh)")
         ->check(CLI::Range(0, kMaxLevels))->default_val(1);
-    sub->add_option("--scheme", subdivide.scheme, "ps: P-S (default); cc: Catmull-Clark (OpenSubdiv)")
-        ->transform(CLI::CheckedTransformer(kScheme, CLI::ignore_case))->default_str("ps");
+    addChoice(sub, "--scheme", subdivide.scheme, kScheme,
+              "ps: P-S; cc: Catmull-Clark through OpenSubdiv (edge-only boundary, no creases)", "ps");
     addPreprocess(sub, subdivide.preprocess);
     addMaxMemory(sub, subdivide.maxMemory);
     sub->footer("Example:\n  psub subdivide data/cow.obj -o cow_ps4.obj --levels 4\n"
@@ -62,7 +76,7 @@ int main(int argc, char** argv) {
 
     StatsOptions stats;
     CLI::App* st = app.add_subcommand("stats", "Count vertices, edges, faces per level, P-S beside Catmull-Clark");
-    st->add_option("input", stats.input, "input mesh (.obj)")->required()->check(CLI::ExistingFile);
+    st->add_option("input", stats.input, "input mesh (.obj)")->required();
     st->add_option("-l,--levels", stats.levels, "P-S steps to count")
         ->check(CLI::Range(0, kMaxLevels))->default_val(4);
     addPreprocess(st, stats.preprocess);
@@ -71,7 +85,7 @@ int main(int argc, char** argv) {
 
     DemoOptions demo;
     CLI::App* de = app.add_subcommand("demo", "A first look: the bundled cow under P-S and Catmull-Clark");
-    de->add_option("--model", demo.model, "another mesh instead of the bundled cow")->check(CLI::ExistingFile);
+    de->add_option("--model", demo.model, "another mesh instead of the bundled cow");
     de->add_option("-l,--levels", demo.levels, "P-S steps (Catmull-Clark gets half as many)")
         ->check(CLI::Range(1, 8))->default_val(4);
     de->add_option("-o,--output-dir", demo.outputDir, "also write the refined meshes here")

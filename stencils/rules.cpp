@@ -73,14 +73,18 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
     return out;
 }
 
+std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,
+                                         std::span<const double> parentPositions) {
+    const Level& parent = hierarchy.levels[k - 1];
+    const bool paired = hierarchy.preprocessed && k == 1;
+    return paired ? pairedPositions(parent.faces, parentPositions)
+                  : psPositions(parent.faces, parent.connectivity, parentPositions);
+}
+
 std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control) {
     std::vector<double> positions(control.begin(), control.end());
-    for (std::size_t k = 1; k < hierarchy.levels.size(); ++k) {
-        const Level& parent = hierarchy.levels[k - 1];
-        const bool paired = hierarchy.preprocessed && k == 1;
-        positions = paired ? pairedPositions(parent.faces, positions)
-                           : psPositions(parent.faces, parent.connectivity, positions);
-    }
+    for (std::size_t k = 1; k < hierarchy.levels.size(); ++k)
+        positions = refineLevelPositions(hierarchy, k, positions);
     return positions;
 }
 

@@ -1,1 +1,477 @@
+// SPEC.md "Bad input": every defect is rejected with a message naming file, line and element;
+// non-manifold vertices and unused vertices are accepted with warnings; the psub program
+// exits 1 with one error line and leaves no output behind.
+#include "psub/topology.h"
+
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <stdlib.h>
+#include <sys/wait.h>
+
+namespace psub {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool contains(const std::string& text, const std::string& part) {
+    return text.find(part) != std::string::npos;
+}
+
+std::string badPath(const std::string& name) { return std::string(PSUB_TEST_DATA "/bad/") + name + ".obj"; }
+
+// readObj + checkMesh, as the program loads a file; the InputError message, or a failure.
+std::string loadError(const std::string& path) {
+    try {
+        checkMesh(readObj(path));
+    } catch (const InputError& error) {
+        return error.what();
+    }
+    ADD_FAILURE() << path << " was accepted";
+    return "(accepted)";
+}
+
+template <class Action>
+std::string inputErrorOf(Action&& action) {
+    try {
+        action();
+    } catch (const InputError& error) {
+        return error.what();
+    }
+    ADD_FAILURE() << "expected an InputError";
+    return "(no error)";
+}
+
+struct Loaded {
+    Mesh mesh;
+    CheckedMesh checked;
+    std::vector<std::string> warnings;  // reader's and checker's
+};
+
+Loaded loadChecked(const std::string& path) {
+    Loaded loaded;
+    loaded.mesh = readObj(path, &loaded.warnings);
+    loaded.checked = checkMesh(loaded.mesh);
+    loaded.warnings.insert(loaded.warnings.end(), loaded.checked.warnings.begin(),
+                           loaded.checked.warnings.end());
+    return loaded;
+}
+
+// One defective file: what its message must contain besides the path. `line` 0: no line.
+struct BadCase {
+    const char* name;
+    int line;
+    std::vector<std::string> needles;
+};
+
+const std::vector<BadCase>& badCases() {
+    static const std::vector<BadCase> cases = {
+        {"index_out_of_range", 9, {"face 4", "vertex index 5", "out of range"}},
+        {"index_zero", 5, {"face 1", "index 0"}},
+        {"negative_index_out_of_range", 5, {"face 1", "-4", "points before"}},
+        {"nonmanifold_edge", 9, {"face 3", "edge 1-2", "shared by 3 faces", "non-manifold edge"}},
+        {"inconsistent_orientation", 9, {"face 2", "edge 2-5", "inconsistent orientation"}},
+        {"nan_coordinate", 4, {"vertex 3", "coordinate y", "not finite"}},
+        {"inf_coordinate", 3, {"vertex 2", "coordinate x", "not finite"}},
+        {"repeated_vertex", 6, {"face 1", "vertex 2", "twice"}},
+        {"too_few_corners", 6, {"face 2", "2 corners"}},
+        {"empty", 0, {"empty mesh"}},
+        {"no_geometry", 0, {"empty mesh"}},
+    };
+    return cases;
+}
+
+TEST(ValidationBadFiles, EachDefectIsRejectedNamingFileLineAndDefect) {
+    for (const BadCase& bad : badCases()) {
+        SCOPED_TRACE(bad.name);
+        const std::string path = badPath(bad.name);
+        const std::string message = loadError(path);
+        EXPECT_TRUE(contains(message, path)) << message;
+        if (bad.line > 0) {
+            EXPECT_TRUE(contains(message, path + ":" + std::to_string(bad.line) + ":")) << message;
+        }
+        for (const std::string& needle : bad.needles)
+            EXPECT_TRUE(contains(message, needle)) << "missing '" << needle << "' in: " << message;
+        EXPECT_FALSE(contains(message, "\n")) << message;
+    }
+}
+
+TEST(ValidationBadFiles, MessagesOfDifferentDefectsDiffer) {
+    // Compared without the path; the two empty files are the same defect.
+    std::map<std::string, std::string> byMessage;  // message without path -> file
+    for (const BadCase& bad : badCases()) {
+        if (std::string(bad.name) == "no_geometry") continue;
+        const std::string path = badPath(bad.name);
+        std::string message = loadError(path);
+        for (std::size_t at; (at = message.find(path)) != std::string::npos;)
+            message.replace(at, path.size(), "FILE");
+        const auto [it, inserted] = byMessage.emplace(message, bad.name);
+        EXPECT_TRUE(inserted) << bad.name << " and " << it->second << " both say: " << message;
+    }
+}
+
+TEST(ValidationBadFiles, EmptyAndCommentOnlyFilesAreBothEmptyMeshes) {
+    for (const char* name : {"empty", "no_geometry"}) {
+        const std::string message = loadError(badPath(name));
+        EXPECT_TRUE(contains(message, "no vertices and no faces")) << message;
+    }
+}
+
+TEST(ValidationBadFiles, VerticesWithoutFacesAreAnEmptyMesh) {
+    Mesh mesh = parseObj("v 0 0 0\nv 1 0 0\nv 0 1 0\n", "points.obj");
+    const std::string message = inputErrorOf([&] { checkMesh(mesh); });
+    EXPECT_TRUE(contains(message, "points.obj")) << message;
+    EXPECT_TRUE(contains(message, "empty mesh")) << message;
+    EXPECT_TRUE(contains(message, "3 vertices")) << message;
+}
+
+TEST(ValidationBadFiles, FanOfThreeFacesOnOneEdgeIsRejected) {
+    const std::string path = PSUB_TEST_DATA "/osd-shapes/catmark_fan.obj";
+    const std::string message = loadError(path);
+    EXPECT_TRUE(contains(message, path + ":")) << message;
+    EXPECT_TRUE(contains(message, "shared by 3 faces")) << message;
+    EXPECT_TRUE(contains(message, "non-manifold edge")) << message;
+}
+
+// ---------------------------------------------------------------------------------------
+// Accepted with warnings
+
+std::size_t countKind(const Connectivity& c, VertexKind kind) {
+    return std::size_t(std::count(c.kind.begin(), c.kind.end(), kind));
+}
+
+TEST(ValidationAccepted, BowtieVertexIsNonManifoldWithAWarningNamingIt) {
+    const std::string path = PSUB_TEST_DATA "/bowtie.obj";
+    const Loaded bowtie = loadChecked(path);
+    const Connectivity& c = bowtie.checked.connectivity;
+    EXPECT_EQ(c.kind[0], VertexKind::NonManifold);
+    EXPECT_EQ(countKind(c, VertexKind::NonManifold), 1u);
+    EXPECT_EQ(countKind(c, VertexKind::Boundary), 4u);
+    ASSERT_EQ(bowtie.warnings.size(), 1u);
+    const std::string& warning = bowtie.warnings[0];
+    EXPECT_TRUE(contains(warning, path + ":2: vertex 1 ")) << warning;
+    EXPECT_TRUE(contains(warning, "non-manifold")) << warning;
+}
+
+TEST(ValidationAccepted, CowVertex254IsNonManifoldWithAWarningGivingItsLine) {
+    const std::string path = PSUB_DATA "/cow.obj";
+    const Loaded cow = loadChecked(path);
+    const Connectivity& c = cow.checked.connectivity;
+    EXPECT_EQ(cow.mesh.faces.vertexCount, 2903u);
+    EXPECT_EQ(cow.mesh.faces.faceCount(), 5804u);
+    EXPECT_EQ(c.kind[253], VertexKind::NonManifold);
+    EXPECT_EQ(countKind(c, VertexKind::NonManifold), 1u);
+    ASSERT_EQ(cow.warnings.size(), 1u);
+    const std::string& warning = cow.warnings[0];
+    EXPECT_TRUE(contains(warning, path + ":264: vertex 254 ")) << warning;
+    EXPECT_TRUE(contains(warning, "non-manifold")) << warning;
+}
+
+TEST(ValidationAccepted, UnusedVertexIsKeptWithOneWarning) {
+    const std::string path = PSUB_TEST_DATA "/osd-shapes/catmark_nonman_verts.obj";
+    const Loaded loaded = loadChecked(path);
+    const Connectivity& c = loaded.checked.connectivity;
+    EXPECT_EQ(countKind(c, VertexKind::Unused), 1u);
+    EXPECT_EQ(c.kind.size(), loaded.mesh.faces.vertexCount);
+    const auto unusedWarnings = std::count_if(loaded.warnings.begin(), loaded.warnings.end(),
+                                              [](const std::string& w) { return contains(w, "used by no face"); });
+    ASSERT_EQ(unusedWarnings, 1);
+    const std::string& warning = *std::find_if(loaded.warnings.begin(), loaded.warnings.end(),
+                                               [](const std::string& w) { return contains(w, "used by no face"); });
+    EXPECT_TRUE(contains(warning, "1 vertex is used by no face")) << warning;
+    EXPECT_TRUE(contains(warning, path)) << warning;
+}
+
+TEST(ValidationAccepted, UnusedVerticesAreCountedInOneWarningNamingTheFirst) {
+    Mesh mesh = parseObj("v 9 9 9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 8 8 8\nf 2 3 4\n", "spare.obj");
+    const CheckedMesh checked = checkMesh(mesh);
+    ASSERT_EQ(checked.warnings.size(), 1u);
+    EXPECT_TRUE(contains(checked.warnings[0], "2 vertices are used by no face")) << checked.warnings[0];
+    EXPECT_TRUE(contains(checked.warnings[0], "spare.obj:1: vertex 1")) << checked.warnings[0];
+    EXPECT_EQ(checked.connectivity.kind[0], VertexKind::Unused);
+    EXPECT_EQ(checked.connectivity.kind[4], VertexKind::Unused);
+}
+
+TEST(ValidationAccepted, CleanClosedMeshHasNoWarnings) {
+    const Loaded cube = loadChecked(PSUB_DATA "/cube.obj");
+    EXPECT_TRUE(cube.warnings.empty()) << cube.warnings.front();
+    EXPECT_EQ(countKind(cube.checked.connectivity, VertexKind::Interior), 8u);
+}
+
+// ---------------------------------------------------------------------------------------
+// In-memory meshes: no file, but the element
+
+Mesh squareMesh() {
+    Mesh mesh;
+    mesh.faces.vertexCount = 4;
+    mesh.faces.addFace(std::vector<Index>{0, 1, 2});
+    mesh.faces.addFace(std::vector<Index>{0, 2, 3});
+    mesh.positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    return mesh;
+}
+
+TEST(ValidationInMemory, ValidSquareIsAcceptedWithoutWarnings) {
+    const CheckedMesh checked = checkMesh(squareMesh());
+    EXPECT_TRUE(checked.warnings.empty());
+    EXPECT_EQ(checked.connectivity.edgeCount(), 5u);
+}
+
+TEST(ValidationInMemory, DefectsNameTheElementAndNoFile) {
+    struct Case {
+        const char* what;
+        Mesh mesh;
+        std::string start;  // the message starts with the element
+        std::string needle;
+    };
+    std::vector<Case> cases;
+    {
+        Mesh m = squareMesh();
+        m.positions[4] = std::numeric_limits<double>::quiet_NaN();
+        cases.push_back({"nan", m, "vertex 2", "not finite"});
+    }
+    {
+        Mesh m = squareMesh();
+        m.positions[9] = -std::numeric_limits<double>::infinity();
+        cases.push_back({"inf", m, "vertex 4", "not finite"});
+    }
+    {
+        Mesh m = squareMesh();
+        m.faces.verts[4] = 7;
+        cases.push_back({"out of range", m, "face 2", "out of range"});
+    }
+    {
+        Mesh m = squareMesh();
+        m.faces.verts[2] = 1;
+        cases.push_back({"repeated", m, "face 1", "twice"});
+    }
+    {
+        Mesh m = squareMesh();
+        m.faces.addFace(std::vector<Index>{1, 3});
+        cases.push_back({"two corners", m, "face 3", "corners"});
+    }
+    {
+        Mesh m = squareMesh();
+        m.faces.addFace(std::vector<Index>{0, 1, 3});  // 0->1 again
+        cases.push_back({"orientation", m, "face 3", "inconsistent orientation"});
+    }
+    {
+        Mesh m = squareMesh();
+        m.faces.addFace(std::vector<Index>{0, 2, 1});  // edge 1-3 a third time
+        cases.push_back({"fin", m, "face 3", "non-manifold edge"});
+    }
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.what);
+        const std::string message = inputErrorOf([&] { checkMesh(c.mesh); });
+        EXPECT_EQ(message.rfind(c.start, 0), 0u) << message;
+        EXPECT_TRUE(contains(message, c.needle)) << message;
+        EXPECT_FALSE(contains(message, ".obj")) << message;
+    }
+}
+
+TEST(ValidationInMemory, EmptyMeshIsRejected) {
+    const std::string message = inputErrorOf([] { checkMesh(Mesh{}); });
+    EXPECT_TRUE(contains(message, "empty mesh")) << message;
+}
+
+TEST(ValidationInMemory, PositionsOfTheWrongSizeAreRejected) {
+    for (std::size_t size : {std::size_t(11), std::size_t(13), std::size_t(15), std::size_t(0)}) {
+        SCOPED_TRACE(size);
+        Mesh mesh = squareMesh();
+        mesh.positions.resize(size, 0.5);
+        const std::string message = inputErrorOf([&] { checkMesh(mesh); });
+        EXPECT_TRUE(contains(message, std::to_string(size) + " coordinates for 4 vertices")) << message;
+    }
+}
+
+TEST(ValidationInMemory, ValidateFacesNamesThePathWhenThereAreNoLines) {
+    Faces faces;
+    faces.vertexCount = 3;
+    faces.addFace(std::vector<Index>{0, 1, 1});
+    Source source;
+    source.path = "made.obj";
+    const std::string message = inputErrorOf([&] { validateFaces(faces, source); });
+    EXPECT_EQ(message.rfind("made.obj: face 1 ", 0), 0u) << message;
+    EXPECT_TRUE(contains(message, "twice")) << message;
+}
+
+TEST(ValidationInMemory, BuildConnectivityNamesTheLineThroughTheSource) {
+    Faces faces;
+    faces.vertexCount = 4;
+    faces.addFace(std::vector<Index>{0, 1, 2});
+    faces.addFace(std::vector<Index>{0, 1, 3});
+    Source source;
+    source.path = "two.obj";
+    source.faceLine = {10, 20};
+    const std::string message = inputErrorOf([&] { buildConnectivity(faces, source); });
+    EXPECT_EQ(message.rfind("two.obj:20: face 2", 0), 0u) << message;
+    EXPECT_TRUE(contains(message, "edge 1-2")) << message;
+    EXPECT_TRUE(contains(message, "inconsistent orientation")) << message;
+}
+
+// ---------------------------------------------------------------------------------------
+// The psub program
+
+std::string readText(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::vector<std::string> entriesOf(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+std::vector<std::string> linesOf(const std::string& text) {
+    std::vector<std::string> lines;
+    std::size_t start = 0;
+    while (start < text.size()) {
+        const std::size_t eol = text.find('\n', start);
+        lines.push_back(text.substr(start, eol - start));
+        if (eol == std::string::npos) break;
+        start = eol + 1;
+    }
+    return lines;
+}
+
+class CliTest : public testing::Test {
+protected:
+    void SetUp() override {
+        std::string pattern = (fs::path(testing::TempDir()) / "psub-cli-XXXXXX").string();
+        ASSERT_NE(::mkdtemp(pattern.data()), nullptr);
+        root_ = pattern;
+        out_ = root_ / "out";
+        fs::create_directory(out_);
+    }
+    void TearDown() override {
+        std::error_code ignored;
+        fs::remove_all(root_, ignored);
+    }
+
+    struct Result {
+        int status = -1;
+        std::string out, err;
+    };
+
+    // Runs psub with `args` (shell words); stdout and stderr go to files outside out_.
+    Result psub(const std::string& args) {
+        const fs::path outFile = root_ / "stdout.txt", errFile = root_ / "stderr.txt";
+        const std::string command = "'" PSUB_EXE "' " + args + " >'" + outFile.string() + "' 2>'" +
+                                    errFile.string() + "' </dev/null";
+        const int raw = std::system(command.c_str());
+        Result result;
+        EXPECT_TRUE(raw != -1 && WIFEXITED(raw)) << command;
+        if (raw != -1 && WIFEXITED(raw)) result.status = WEXITSTATUS(raw);
+        result.out = readText(outFile);
+        result.err = readText(errFile);
+        return result;
+    }
+
+    std::string output() const { return (out_ / "out.obj").string(); }
+
+    fs::path root_, out_;
+};
+
+TEST_F(CliTest, EveryBadFileExitsOneWithOneErrorLineAndNoOutput) {
+    for (const BadCase& bad : badCases()) {
+        SCOPED_TRACE(bad.name);
+        const std::string path = badPath(bad.name);
+        const Result r = psub("subdivide '" + path + "' -o '" + output() + "' --levels 2");
+        EXPECT_EQ(r.status, 1);
+        const std::vector<std::string> lines = linesOf(r.err);
+        ASSERT_EQ(lines.size(), 1u) << r.err;
+        EXPECT_EQ(lines[0].rfind("psub: error: ", 0), 0u) << lines[0];
+        EXPECT_TRUE(contains(lines[0], path)) << lines[0];
+        EXPECT_TRUE(contains(lines[0], bad.needles.back())) << lines[0];
+        EXPECT_TRUE(entriesOf(out_).empty()) << "left behind: " << entriesOf(out_).front();
+    }
+}
+
+TEST_F(CliTest, BadInputLeavesAnExistingOutputFileUntouched) {
+    std::ofstream(output()) << "previous result\n";
+    const Result r = psub("subdivide '" + badPath("nonmanifold_edge") + "' -o '" + output() + "' --levels 2");
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(readText(output()), "previous result\n");
+    EXPECT_EQ(entriesOf(out_), std::vector<std::string>{"out.obj"});
+}
+
+TEST_F(CliTest, EdgeFanFileExitsOneWithNoOutput) {
+    const Result r = psub("subdivide '" PSUB_TEST_DATA "/osd-shapes/catmark_fan.obj' -o '" +
+                          output() + "' --levels 1");
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err.rfind("psub: error: ", 0), 0u) << r.err;
+    EXPECT_TRUE(contains(r.err, "non-manifold edge")) << r.err;
+    EXPECT_TRUE(entriesOf(out_).empty());
+}
+
+TEST_F(CliTest, OutputDirectoryThatCannotExistExitsOneWithOneErrorLine) {
+    const fs::path plain = root_ / "plain";
+    std::ofstream(plain) << "a file";
+    const Result r = psub("subdivide '" PSUB_DATA "/cube.obj' -o '" + (plain / "out.obj").string() +
+                          "' --levels 1");
+    EXPECT_EQ(r.status, 1);
+    const std::vector<std::string> lines = linesOf(r.err);
+    ASSERT_EQ(lines.size(), 1u) << r.err;
+    EXPECT_EQ(lines[0].rfind("psub: error: ", 0), 0u) << lines[0];
+    EXPECT_EQ(readText(plain), "a file");
+}
+
+TEST_F(CliTest, LevelCountBeyondMemoryExitsOneBeforeWriting) {
+    const Result r = psub("subdivide '" PSUB_DATA "/cow.obj' -o '" + output() + "' --levels 30");
+    EXPECT_EQ(r.status, 1);
+    const std::vector<std::string> lines = linesOf(r.err);
+    ASSERT_FALSE(lines.empty());
+    EXPECT_EQ(lines.back().rfind("psub: error: ", 0), 0u) << r.err;
+    EXPECT_TRUE(contains(lines.back(), "cow.obj")) << r.err;
+    EXPECT_TRUE(entriesOf(out_).empty());
+}
+
+TEST_F(CliTest, MissingRequiredOptionExitsTwo) {
+    EXPECT_EQ(psub("subdivide '" PSUB_DATA "/cube.obj' --levels 1").status, 2);  // no -o
+    EXPECT_EQ(psub("subdivide -o '" + output() + "'").status, 2);               // no input
+    EXPECT_TRUE(entriesOf(out_).empty());
+}
+
+TEST_F(CliTest, HelpExitsZero) {
+    const Result r = psub("--help");
+    EXPECT_EQ(r.status, 0);
+    EXPECT_TRUE(contains(r.out + r.err, "subdivide")) << r.out << r.err;
+}
+
+TEST_F(CliTest, CowIsSubdividedWithANonManifoldVertexWarning) {
+    const Result r = psub("subdivide '" PSUB_DATA "/cow.obj' -o '" + output() + "' --levels 1");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(contains(r.err, "psub: warning: ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "cow.obj:264: vertex 254 ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "non-manifold")) << r.err;
+    EXPECT_FALSE(contains(r.err, "error")) << r.err;
+    EXPECT_EQ(entriesOf(out_), std::vector<std::string>{"out.obj"});
+    const Mesh result = readObj(output());
+    EXPECT_GT(result.faces.faceCount(), 5804u);
+}
+
+TEST_F(CliTest, BowtieIsSubdividedWithANonManifoldVertexWarning) {
+    const Result r = psub("subdivide '" PSUB_TEST_DATA "/bowtie.obj' -o '" + output() + "' --levels 2");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(contains(r.err, "psub: warning: ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "bowtie.obj:2: vertex 1 ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "non-manifold")) << r.err;
+    EXPECT_EQ(entriesOf(out_), std::vector<std::string>{"out.obj"});
+    const Mesh result = readObj(output());
+    EXPECT_EQ(result.positions[0], 0.0);  // the pinch vertex is retained in place
+    EXPECT_EQ(result.positions[1], 0.0);
+    EXPECT_EQ(result.positions[2], 0.0);
+}
+
+}  // namespace
+}  // namespace psub

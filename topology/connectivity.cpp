@@ -184,8 +184,7 @@ CheckedMesh checkMesh(const Mesh& mesh) {
         if (kind == VertexKind::Unused && unused++ == 0) firstUnused = v;
     }
     if (unused > 0)
-        checked.warnings.push_back(name + ": " + std::to_string(unused) + " vertex" +
-                                   (unused == 1 ? " is" : "es are") + " used by no face (first: " +
+        checked.warnings.push_back(name + ": " + std::to_string(unused) + (unused == 1 ? " vertex is" : " vertices are") + " used by no face (first: " +
                                    describeVertex(source, firstUnused) +
                                    "); kept unchanged at every level");
     return checked;

@@ -33,6 +33,13 @@ std::string_view nextToken(std::string_view& s) {
     return token;
 }
 
+// A token as shown in a message: control bytes replaced, long tokens cut.
+std::string shown(std::string_view token) {
+    std::string out;
+    for (char c : token.substr(0, 40)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
+    return token.size() > 40 ? out + "..." : out;
+}
+
 std::string at(const std::string& name, std::uint32_t line) {
     return name + ":" + std::to_string(line) + ": ";
 }
@@ -46,8 +53,9 @@ public:
     }
 
     void statement(std::string_view line, std::uint32_t lineNo) {
+        line = line.substr(0, line.find('#'));  // comments, also after a statement
         line = skipSpace(line);
-        if (line.empty() || line[0] == '#') return;
+        if (line.empty()) return;
         std::string_view keyword = nextToken(line);
         if (keyword == "v") return vertex(line, lineNo);
         if (keyword == "f") return face(line, lineNo);
@@ -56,7 +64,7 @@ public:
         if (ignored.count(keyword)) return;
         if (warnings_ && unknown_.insert(std::string(keyword)).second)
             warnings_->push_back(at(name_, lineNo) + "ignoring unknown statement '" +
-                                 std::string(keyword) + "'");
+                                 shown(keyword) + "'");
     }
 
     Mesh finish() {
@@ -77,16 +85,16 @@ private:
         const std::size_t v = mesh_.positions.size() / 3;
         for (int axis = 0; axis < 3; ++axis) {
             std::string_view token = nextToken(rest);
-            if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+            if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
             double value = 0;
             auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
             if (token.empty() || ec != std::errc() || end != token.data() + token.size())
                 throw InputError(at(name_, lineNo) + "vertex " + std::to_string(v + 1) +
-                                 ": expected 3 numbers, got '" + std::string(token) + "'");
+                                 ": expected 3 numbers, got '" + shown(token) + "'");
             if (!std::isfinite(value))
                 throw InputError(at(name_, lineNo) + "vertex " + std::to_string(v + 1) +
                                  ": coordinate " + "xyz"[axis] + " is not finite ('" +
-                                 std::string(token) + "')");
+                                 shown(token) + "')");
             mesh_.positions.push_back(value);
         }
         mesh_.source.vertexLine.push_back(lineNo);
@@ -102,7 +110,7 @@ private:
             const bool tailOk = end == token.data() + token.size() || *end == '/';
             if (ec != std::errc() || !tailOk)
                 throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
-                                 ": bad vertex reference '" + std::string(token) + "'");
+                                 ": bad vertex reference '" + shown(token) + "'");
             if (index == 0)
                 throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
                                  ": vertex index 0 (OBJ indices start at 1)");
@@ -114,7 +122,7 @@ private:
             const std::int64_t resolved = index < 0 ? seen + index : index - 1;
             if (resolved >= std::int64_t(kNoIndex))
                 throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
-                                 ": vertex index " + std::string(token) + " is too large");
+                                 ": vertex index " + shown(token) + " is too large");
             corners_.push_back(Index(resolved));
         }
         mesh_.faces.addFace(corners_);
@@ -146,10 +154,14 @@ Mesh parseObj(std::string_view text, const std::string& name, std::vector<std::s
     ObjParser parser(name, warnings);
     std::string joined;  // a statement continued over several lines with a trailing '\'
     std::uint32_t lineNo = 0, joinedLine = 0;
+    if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);  // UTF-8 byte-order mark
     while (!text.empty()) {
-        const std::size_t eol = text.find('\n');
+        // Lines end in \n, \r\n or a lone \r (old Mac files).
+        const std::size_t eol = text.find_first_of("\r\n");
         std::string_view line = text.substr(0, eol);
-        text = eol == std::string_view::npos ? std::string_view() : text.substr(eol + 1);
+        std::size_t skip = eol == std::string_view::npos ? text.size() : eol + 1;
+        if (eol != std::string_view::npos && text[eol] == '\r' && eol + 1 < text.size() && text[eol + 1] == '\n') ++skip;
+        text.remove_prefix(skip);
         ++lineNo;
         while (!line.empty() && isSpace(line.back())) line.remove_suffix(1);
         const bool continues = !line.empty() && line.back() == '\\';
@@ -197,8 +209,7 @@ std::string formatObj(const Faces& faces, std::span<const double> positions,
         out += 'v';
         for (int axis = 0; axis < 3; ++axis) {
             buf[0] = ' ';
-            char* end = std::to_chars(buf + 1, buf + sizeof buf, positions[i + axis],
-                                      std::chars_format::general, 9).ptr;
+            char* end = std::to_chars(buf + 1, buf + sizeof buf, positions[i + axis]).ptr;
             out.append(buf, end);
         }
         out += '\n';
@@ -216,7 +227,10 @@ std::string formatObj(const Faces& faces, std::span<const double> positions,
 }
 
 void writeFileAtomic(const std::string& path, std::string_view text) {
-    std::string temp = path + ".tmp-XXXXXX";
+    // The temporary sits in the same directory (so rename is atomic) under a short name, so
+    // that an output name near the file-system limit still works.
+    const std::size_t slash = path.rfind('/');
+    std::string temp = (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + ".psub-XXXXXX";
     const int fd = ::mkstemp(temp.data());
     if (fd < 0) throw InputError(path + ": cannot write: " + std::strerror(errno));
     auto fail = [&](const char* what) {

@@ -32,6 +32,10 @@ std::vector<double> pairedPositions(const Faces& faces, std::span<const double> 
 std::vector<double> psPositions(const Faces& faces, const Connectivity& connectivity,
                                 std::span<const double> positions);
 
+// Positions of hierarchy.levels[k] from those of levels[k-1] (paired method or P-S step).
+std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,
+                                         std::span<const double> parentPositions);
+
 // Positions of the finest level of `hierarchy` from the control positions of levels[0].
 std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control);
 
