@@ -201,5 +201,32 @@ TEST(Topology, ReversedInputStaysReversed) {
     EXPECT_NO_THROW(test::refine(lefthanded, 3));
 }
 
+TEST(Topology, DirectLevelConstructionEqualsGenericBuild) {
+    for (const std::string& path : test::allValidModels()) {
+        SCOPED_TRACE(path);
+        const auto loaded = load(path);
+        Level parent{loaded.mesh.faces, loaded.checked.connectivity};
+        for (int step = 0; step < 3; ++step) {
+            const Level direct = refineLevel(parent);
+            const Faces generic = refineFaces(parent.faces, parent.connectivity);
+            const Connectivity built = buildConnectivity(generic);
+            ASSERT_EQ(direct.faces.vertexCount, generic.vertexCount);
+            ASSERT_EQ(direct.faces.offsets, generic.offsets);
+            ASSERT_EQ(direct.faces.verts, generic.verts);
+            EXPECT_EQ(direct.connectivity.faceOf, built.faceOf);
+            EXPECT_EQ(direct.connectivity.next, built.next);
+            EXPECT_EQ(direct.connectivity.twin, built.twin);
+            EXPECT_EQ(direct.connectivity.edgeOf, built.edgeOf);
+            EXPECT_EQ(direct.connectivity.edgeHalfedge, built.edgeHalfedge);
+            EXPECT_EQ(direct.connectivity.outOffsets, built.outOffsets);
+            EXPECT_EQ(direct.connectivity.outgoing, built.outgoing);
+            EXPECT_EQ(direct.connectivity.valence, built.valence);
+            EXPECT_EQ(direct.connectivity.kind, built.kind);
+            EXPECT_EQ(direct.connectivity.boundaryEdgeCount, built.boundaryEdgeCount);
+            parent = direct;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace psub

@@ -1,4 +1,5 @@
 // Half-edge connectivity in linear time (counting sorts), vertex classification, validation.
+#include "connectivity_detail.h"
 #include "psub/topology.h"
 
 #include <algorithm>
@@ -97,6 +98,33 @@ void classify(const Faces& faces, Connectivity& c) {
 
 }  // namespace
 
+void completeConnectivity(const Faces& faces, Connectivity& c) {
+    const Index halfedges = Index(faces.verts.size());
+    c.edgeOf.assign(halfedges, kNoIndex);
+    c.edgeHalfedge.clear();
+    c.boundaryEdgeCount = 0;
+    for (Index h = 0; h < halfedges; ++h) {
+        if (c.edgeOf[h] != kNoIndex) continue;
+        c.edgeOf[h] = c.edgeCount();
+        if (c.twin[h] != kNoIndex) c.edgeOf[c.twin[h]] = c.edgeCount();
+        else ++c.boundaryEdgeCount;
+        c.edgeHalfedge.push_back(h);
+    }
+
+    c.outOffsets.assign(std::size_t(faces.vertexCount) + 1, 0);
+    for (Index h = 0; h < halfedges; ++h) ++c.outOffsets[faces.verts[h] + 1];
+    for (Index v = 0; v < faces.vertexCount; ++v) c.outOffsets[v + 1] += c.outOffsets[v];
+    c.outgoing.resize(halfedges);
+    std::vector<Index> fill(c.outOffsets.begin(), c.outOffsets.end() - 1);
+    for (Index h = 0; h < halfedges; ++h) c.outgoing[fill[faces.verts[h]]++] = h;
+
+    c.valence.assign(faces.vertexCount, 0);
+    for (Index h = 0; h < halfedges; ++h) {
+        ++c.valence[faces.verts[h]];
+        if (c.twin[h] == kNoIndex) ++c.valence[faces.verts[c.next[h]]];
+    }
+}
+
 Connectivity buildConnectivity(const Faces& faces, const Source& source) {
     Connectivity c;
     const Index halfedges = Index(faces.verts.size());
@@ -108,28 +136,7 @@ Connectivity buildConnectivity(const Faces& faces, const Source& source) {
             c.next[h] = h + 1 == faces.offsets[f + 1] ? faces.offsets[f] : h + 1;
         }
     pairTwins(faces, c, source);
-
-    c.edgeOf.assign(halfedges, kNoIndex);
-    for (Index h = 0; h < halfedges; ++h) {
-        if (c.edgeOf[h] != kNoIndex) continue;
-        c.edgeOf[h] = c.edgeCount();
-        if (c.twin[h] != kNoIndex) c.edgeOf[c.twin[h]] = c.edgeCount();
-        else ++c.boundaryEdgeCount;
-        c.edgeHalfedge.push_back(h);
-    }
-
-    std::vector<Index> all(halfedges);
-    for (Index h = 0; h < halfedges; ++h) all[h] = h;
-    c.outgoing = countingSort(all, faces.vertexCount, [&](Index h) { return faces.verts[h]; });
-    c.outOffsets.assign(std::size_t(faces.vertexCount) + 1, 0);
-    for (Index h = 0; h < halfedges; ++h) ++c.outOffsets[faces.verts[h] + 1];
-    for (Index v = 0; v < faces.vertexCount; ++v) c.outOffsets[v + 1] += c.outOffsets[v];
-
-    c.valence.assign(faces.vertexCount, 0);
-    for (Index h = 0; h < halfedges; ++h) {
-        ++c.valence[faces.verts[h]];
-        if (c.twin[h] == kNoIndex) ++c.valence[faces.verts[c.next[h]]];
-    }
+    completeConnectivity(faces, c);
     classify(faces, c);
     return c;
 }

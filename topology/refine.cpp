@@ -1,6 +1,8 @@
 // The topological step shared by the paired method and P-S, the level hierarchy, and counts.
+#include "connectivity_detail.h"
 #include "psub/topology.h"
 
+#include <algorithm>
 #include <chrono>
 
 namespace psub {
@@ -53,6 +55,64 @@ Faces refineFaces(const Faces& faces, const Connectivity& c) {
     return child;
 }
 
+// Every child half-edge but the kept boundary edges is a "spoke" between an old vertex v and
+// the point of a face f holding v at corner c: one half-edge v->F(f) and one F(f)->v, twins.
+// Recording both per corner c pairs all twins without searching.
+Level refineLevel(const Level& parent) {
+    const Faces& pf = parent.faces;
+    const Connectivity& pc = parent.connectivity;
+    const Index oldVertices = pf.vertexCount, edges = pc.edgeCount();
+    const Index childHalfedges = 4 * (edges - pc.boundaryEdgeCount) + 3 * pc.boundaryEdgeCount;
+
+    Level child;
+    Faces& cf = child.faces;
+    Connectivity& cc = child.connectivity;
+    cf.vertexCount = oldVertices + pf.faceCount();
+    cf.offsets.resize(std::size_t(edges) + 1);
+    cf.verts.resize(childHalfedges);
+    cc.faceOf.resize(childHalfedges);
+    cc.next.resize(childHalfedges);
+    cc.twin.resize(childHalfedges);
+    std::vector<Index> toFace(pf.verts.size()), fromFace(pf.verts.size());  // per corner c
+
+    Index k = 0;
+    for (Index e = 0; e < edges; ++e) {
+        const Index h = pc.edgeHalfedge[e], t = pc.twin[h], nh = pc.next[h];
+        const Index a = pf.verts[h], b = pf.verts[nh], ff = oldVertices + pc.faceOf[h];
+        cf.offsets[e] = k;
+        if (t == kNoIndex) {  // [a, b, F(f)]
+            const Index corners[3] = {a, b, ff};
+            std::copy(corners, corners + 3, &cf.verts[k]);
+            cc.twin[k] = kNoIndex;
+            toFace[nh] = k + 1;
+            fromFace[h] = k + 2;
+        } else {  // [a, F(g), b, F(f)]
+            const Index corners[4] = {a, oldVertices + pc.faceOf[t], b, ff};
+            std::copy(corners, corners + 4, &cf.verts[k]);
+            toFace[pc.next[t]] = k;
+            fromFace[t] = k + 1;
+            toFace[nh] = k + 2;
+            fromFace[h] = k + 3;
+        }
+        const Index size = t == kNoIndex ? 3 : 4;
+        for (Index i = 0; i < size; ++i) {
+            cc.faceOf[k + i] = e;
+            cc.next[k + i] = k + (i + 1) % size;
+        }
+        k += size;
+    }
+    cf.offsets[edges] = k;
+    for (Index c = 0; c < pf.verts.size(); ++c) {
+        cc.twin[toFace[c]] = fromFace[c];
+        cc.twin[fromFace[c]] = toFace[c];
+    }
+    completeConnectivity(cf, cc);
+    // Old vertices keep their kind; a face point is always interior (its fan is the face).
+    cc.kind.assign(pc.kind.begin(), pc.kind.end());
+    cc.kind.resize(cf.vertexCount, VertexKind::Interior);
+    return child;
+}
+
 Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess, int steps,
                          const std::function<void(int, double)>& onLevel) {
     Hierarchy hierarchy;
@@ -61,10 +121,7 @@ Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess
     const int total = steps + (preprocess ? 1 : 0);
     for (int level = 1; level <= total; ++level) {
         const auto start = std::chrono::steady_clock::now();
-        const Level& parent = hierarchy.levels.back();
-        Faces child = refineFaces(parent.faces, parent.connectivity);
-        Connectivity childConnectivity = buildConnectivity(child);
-        hierarchy.levels.push_back({std::move(child), std::move(childConnectivity)});
+        hierarchy.levels.push_back(refineLevel(hierarchy.levels.back()));
         const std::chrono::duration<double> seconds = std::chrono::steady_clock::now() - start;
         if (onLevel) onLevel(level, seconds.count());
     }

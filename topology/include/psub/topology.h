@@ -154,6 +154,10 @@ struct Level {
     Connectivity connectivity;
 };
 
+// One refined level built directly from its parent: the same faces as refineFaces and the
+// same connectivity as buildConnectivity on them, without searching for twins.
+Level refineLevel(const Level& parent);
+
 // The levels of a refinement: levels[0] is the input; when `preprocessed`, levels[1] is the
 // paired-method quad mesh; every further level is one P-S step.
 struct Hierarchy {
