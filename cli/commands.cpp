@@ -3,7 +3,9 @@
 #include "commands.h"
 
 #include "psub/catmark.h"
+#include "psub/evaluator.h"
 #include "psub/rules.h"
+#include "psub/stencils.h"
 
 #include <algorithm>
 #include <chrono>
@@ -44,14 +46,15 @@ std::uint64_t physicalMemory() {
 }
 
 // Rough peak bytes of refining to `steps` topological steps: every level's faces and
-// connectivity stay alive (about 44 B per half-edge, 30 B per vertex), plus two position
-// arrays and the OBJ text of the finest level.
+// connectivity stay alive (about 44 B per half-edge, 30 B per vertex), the per-level table,
+// plus two position arrays and the OBJ text of the finest level.
 double estimateBytes(const Counts& input, int steps) {
     double bytes = 0;
     for (int k = 0; k <= steps; ++k) {
         const Counts c = countsAfterSteps(input, k);
         const double halfedges = 2.0 * double(c.edges) - double(c.boundaryEdges);
         bytes += 44 * halfedges + 30 * double(c.vertices) + 8 * double(c.faces);
+        if (k > 0) bytes += 4 * (halfedges + 2 * double(c.vertices));  // per-level table rows
     }
     const Counts finest = countsAfterSteps(input, steps);
     return bytes + 2 * 24 * double(finest.vertices) + 40 * double(finest.vertices) +
@@ -94,6 +97,15 @@ std::string header(const std::string& input, const std::string& what) {
 
 bool progressWanted() { return ::isatty(2) != 0; }
 
+// The finest faces as a Faces value (what formatObj writes).
+Faces finestFaces(const SurfaceTable& surface) {
+    Faces faces;
+    faces.vertexCount = surface.vertexCount;
+    faces.offsets = surface.faceOffsets;
+    faces.verts = surface.faceVerts;
+    return faces;
+}
+
 int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, o.preprocess,
@@ -101,15 +113,19 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const int steps = o.levels + (preprocess ? 1 : 0);
     guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity), steps, o.maxMemory);
     const auto start = Clock::now();
-    auto progress = [&](int level, double seconds) {
-        if (progressWanted())
+    RefineOptions options{o.levels, o.preprocess, false, {}};
+    if (progressWanted())
+        options.onLevel = [&](int level, double seconds) {
             std::fprintf(stderr, "psub: level %d/%d topology in %.1f ms\n", level, steps, seconds * 1e3);
-    };
-    const Hierarchy hierarchy = refineTopology(faces, loaded.checked.connectivity, preprocess,
-                                               o.levels, progress);
-    const std::vector<double> positions = refinePositions(hierarchy, loaded.mesh.positions);
-    const Faces& finest = hierarchy.finest().faces;
-    const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") + preprocessName(preprocess);
+        };
+    const Refinement refinement = refine(loaded.mesh, loaded.checked.connectivity, options);
+    CpuEvaluator<double> evaluator(refinement.perLevel, refinement.factorized, refinement.surface,
+                                   TableForm::PerLevel);
+    std::vector<double> positions(3 * std::size_t(evaluator.refinedCount()));
+    evaluator.evaluate(loaded.mesh.positions, positions);
+    const Faces finest = finestFaces(refinement.surface);
+    const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") +
+                             preprocessName(preprocess);
     writeFileAtomic(o.output, formatObj(finest, positions, header(o.input, what)));
     std::printf("%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), msSince(start));
@@ -234,6 +250,45 @@ void printShapes(const Loaded& loaded, const Hierarchy& hierarchy,
                 "(SPEC.md, \"The paper's claims\").\n");
 }
 
+// The engine's real path: tables built once, then frames of animated control points.
+void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<double>& rulePositions) {
+    const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, {levels, Preprocess::Auto, true, {}});
+    const double refined = r.perLevel.refinedCount();
+    std::printf("\nStencil tables (built once; topology %.1f ms):\n", r.topologyMs);
+    std::printf("  per-level   %10llu rows %11llu indices %9.1f MiB %6.1f B/vertex  built in %.1f ms\n",
+                (unsigned long long)r.perLevel.destinations.size(), (unsigned long long)r.perLevel.indices.size(),
+                double(r.perLevel.bytes()) / 1048576, double(r.perLevel.bytes()) / refined, r.perLevelMs);
+    std::printf("  factorized  %10u rows %11llu entries %9.1f MiB %6.1f B/vertex  built in %.1f ms\n",
+                r.factorized.rowCount(), (unsigned long long)r.factorized.indices.size(),
+                double(r.factorized.bytes()) / 1048576, double(r.factorized.bytes()) / refined, r.factorizedMs);
+
+    std::printf("\nPer frame (a wave animates the %u control points; float xyz, all cores):\n",
+                r.perLevel.controlCount);
+    std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(r.perLevel.refinedCount()));
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
+        CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, form);
+        std::vector<double> frameMs;
+        for (int frame = 0; frame < 25; ++frame) {
+            for (std::size_t v = 0; v < control.size() / 3; ++v)
+                for (int axis = 0; axis < 3; ++axis)
+                    control[3 * v + axis] = float(loaded.mesh.positions[3 * v + axis] +
+                                                  (axis == 1 ? 0.05 * std::sin(loaded.mesh.positions[3 * v] + 0.3 * frame) : 0));
+            const auto start = Clock::now();
+            evaluator.evaluate(control, out);
+            frameMs.push_back(msSince(start));
+        }
+        std::sort(frameMs.begin(), frameMs.end());
+        // The rest pose once more, against the readable rule path.
+        std::copy(loaded.mesh.positions.begin(), loaded.mesh.positions.end(), control.begin());
+        evaluator.evaluate(control, out);
+        double worst = 0;
+        for (std::size_t i = 0; i < out.size(); ++i) worst = std::max(worst, std::abs(double(out[i]) - rulePositions[i]));
+        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (%d threads)  max |table - rules| = %.2g\n",
+                    form == TableForm::PerLevel ? "per-level" : "factorized", frameMs[frameMs.size() / 2],
+                    frameMs.front(), evaluator.threads(), worst);
+    }
+}
+
 void writeDemoMeshes(const DemoOptions& options, const std::string& model, const Loaded& loaded,
                      const Hierarchy& hierarchy, const std::vector<double>& positions) {
     const std::string stem = std::filesystem::path(model).stem().string();
@@ -306,6 +361,7 @@ int runDemo(const DemoOptions& options) {
     std::printf("\nP-S positions of every level by the readable rule path: %.1f ms\n",
                 msSince(positionsStart));
     printShapes(loaded, hierarchy, positions);
+    printTablesAndFrames(loaded, options.levels, positions.back());
     if (!options.outputDir.empty()) writeDemoMeshes(options, model, loaded, hierarchy, positions.back());
     std::printf("\nNext:\n"
                 "  psub subdivide %s -o out.obj --levels %d      # refined mesh as OBJ\n"

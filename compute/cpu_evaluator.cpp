@@ -1,0 +1,110 @@
+// The threaded CPU evaluator: one OpenMP parallel region per frame, rows split evenly across
+// threads, a barrier between levels; normals gathered per vertex.
+#include "psub/evaluator.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <stdexcept>
+
+namespace psub {
+namespace {
+
+// This thread's share [begin, end) of `rows` rows.
+std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
+    const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
+    return {rows * t / n, rows * (t + 1) / n};
+}
+
+}  // namespace
+
+template <class T>
+CpuEvaluator<T>::CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTable& factorized,
+                              const SurfaceTable& surface, TableForm form, std::uint32_t width,
+                              int threads)
+    : perLevel_(perLevel), factorized_(factorized), surface_(surface), form_(form), width_(width),
+      threads_(threads > 0 ? threads : omp_get_max_threads()) {
+    if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
+    if (form == TableForm::Factorized &&
+        (factorized.rowCount() != perLevel.refinedCount() || factorized.controlCount != perLevel.controlCount))
+        throw std::invalid_argument("CpuEvaluator: the factorized table was not built for these levels");
+    std::uint64_t total = 0;
+    for (std::size_t k = 0; k + 1 < perLevel.levels.size(); ++k) {
+        levelBase_.push_back(total);
+        total += std::uint64_t(perLevel.levels[k].destinationCount) * width;
+    }
+    if (form == TableForm::PerLevel) levels_.resize(total);
+    faceNormals_.resize(3 * (surface.faceOffsets.size() - 1));
+}
+
+template <class T>
+void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined) {
+    assert(control.size() >= std::size_t(controlCount()) * width_);
+    assert(refined.size() >= std::size_t(refinedCount()) * width_);
+    const BufferLayout packed{0, width_, width_};
+    if (form_ == TableForm::Factorized) {
+#pragma omp parallel num_threads(threads_) if (threads_ > 1)
+        {
+            const auto [begin, end] = share(factorized_.rowCount());
+            evaluateFactorizedRows(factorized_, control.data(), packed, refined.data(), packed,
+                                   std::uint32_t(begin), std::uint32_t(end));
+        }
+        return;
+    }
+    const std::size_t levels = perLevel_.levels.size();
+    if (levels == 0) {
+        std::copy(control.begin(), control.begin() + std::ptrdiff_t(controlCount()) * width_, refined.begin());
+        return;
+    }
+#pragma omp parallel num_threads(threads_) if (threads_ > 1)
+    for (std::size_t k = 0; k < levels; ++k) {
+        const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
+        T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
+        const StencilLevel& level = perLevel_.levels[k];
+        const auto [begin, end] = share(level.rowEnd - level.rowBegin);
+        evaluateLevelRows(perLevel_, k, source, packed, destination, packed, begin, end);
+#pragma omp barrier
+    }
+}
+
+template <class T>
+void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) {
+    assert(width_ >= 3 && normals.size() >= 3 * std::size_t(surface_.vertexCount));
+    const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
+    const T* p = refined.data();
+    const std::size_t stride = width_;
+#pragma omp parallel num_threads(threads_) if (threads_ > 1)
+    {
+        // Newell's normal of each face: twice its area along its normal.
+#pragma omp for schedule(static)
+        for (std::uint32_t f = 0; f < faces; ++f) {
+            T n[3] = {0, 0, 0};
+            const std::uint32_t begin = surface_.faceOffsets[f], end = surface_.faceOffsets[f + 1];
+            for (std::uint32_t c = begin; c < end; ++c) {
+                const T* a = p + surface_.faceVerts[c] * stride;
+                const T* b = p + surface_.faceVerts[c + 1 == end ? begin : c + 1] * stride;
+                n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+                n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+                n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            }
+            std::copy(n, n + 3, &faceNormals_[3 * std::size_t(f)]);
+        }
+#pragma omp for schedule(static)
+        for (std::uint32_t v = 0; v < surface_.vertexCount; ++v) {
+            T n[3] = {0, 0, 0};
+            for (std::uint32_t i = surface_.vertexOffsets[v]; i < surface_.vertexOffsets[v + 1]; ++i)
+                for (int axis = 0; axis < 3; ++axis)
+                    n[axis] += faceNormals_[3 * std::size_t(surface_.vertexFaces[i]) + axis];
+            const T length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            const T scale = length > 0 ? 1 / length : 0;
+            for (int axis = 0; axis < 3; ++axis) normals[3 * std::size_t(v) + axis] = n[axis] * scale;
+        }
+    }
+}
+
+template class CpuEvaluator<float>;
+template class CpuEvaluator<double>;
+
+}  // namespace psub

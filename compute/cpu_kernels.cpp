@@ -1,0 +1,116 @@
+// CPU stencil kernels: per-level row groups (weights per group) and factorized rows, with
+// fixed-width paths for 3 and 4 values per vertex and a generic one.
+#include "psub/evaluator.h"
+
+#include <cassert>
+
+namespace psub {
+namespace {
+
+// Sums `count` source elements listed in `ix` into acc (fixed width W, or `length` when W=0).
+template <class T, int W>
+inline void addElements(T* acc, const std::uint32_t* ix, std::uint32_t count, const T* source,
+                        BufferLayout layout, T weight) {
+    const std::uint32_t length = W > 0 ? std::uint32_t(W) : layout.length;
+    for (std::uint32_t j = 0; j < count; ++j) {
+        const T* p = source + std::size_t(ix[j]) * layout.stride + layout.offset;
+        for (std::uint32_t i = 0; i < length; ++i) acc[i] += weight * p[i];
+    }
+}
+
+template <class T, int W>
+void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
+                const T* source, BufferLayout sl, T* destination, BufferLayout dl) {
+    const T centre = T(g.centre), edge = T(g.edge), diagonal = T(g.diagonal);
+    const std::uint32_t length = W > 0 ? std::uint32_t(W) : sl.length;
+    const std::uint32_t* indices = table.indices.data() + g.indexBegin;
+    const std::uint32_t* destinations = table.destinations.data() + g.rowBegin;
+    for (std::uint64_t r = r0; r < r1; ++r) {
+        const std::uint32_t* ix = indices + r * g.width;
+        T* out = destination + std::size_t(destinations[r]) * dl.stride + dl.offset;
+        if constexpr (W > 0) {
+            T acc[W] = {}, edges[W] = {}, diagonals[W] = {};
+            addElements<T, W>(acc, ix, 1, source, sl, centre);
+            addElements<T, W>(edges, ix + 1, g.n, source, sl, T(1));
+            addElements<T, W>(diagonals, ix + 1 + g.n, g.m, source, sl, T(1));
+            for (int i = 0; i < W; ++i) out[i] = acc[i] + edge * edges[i] + diagonal * diagonals[i];
+        } else {
+            for (std::uint32_t i = 0; i < length; ++i) out[i] = 0;
+            addElements<T, 0>(out, ix, 1, source, sl, centre);
+            addElements<T, 0>(out, ix + 1, g.n, source, sl, edge);
+            addElements<T, 0>(out, ix + 1 + g.n, g.m, source, sl, diagonal);
+        }
+    }
+}
+
+template <class T, int W>
+void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* source,
+               BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
+               std::uint64_t rowEnd) {
+    for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+        const RowGroup& g = table.groups[gi];
+        const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level
+        const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
+        if (begin < end) applyGroup<T, W>(table, g, begin - first, end - first, source, sl, destination, dl);
+    }
+}
+
+template <class T, int W>
+void factorizedRows(const FactorizedTable& table, const T* source, BufferLayout sl, T* destination,
+                    BufferLayout dl, std::uint32_t rowBegin, std::uint32_t rowEnd) {
+    const std::uint32_t length = W > 0 ? std::uint32_t(W) : sl.length;
+    for (std::uint32_t r = rowBegin; r < rowEnd; ++r) {
+        T* out = destination + std::size_t(r) * dl.stride + dl.offset;
+        const std::uint64_t begin = table.offsets[r], end = table.offsets[r + 1];
+        if constexpr (W > 0) {
+            T acc[W] = {};
+            for (std::uint64_t e = begin; e < end; ++e) {
+                const T* p = source + std::size_t(table.indices[e]) * sl.stride + sl.offset;
+                const T w = T(table.weights[e]);
+                for (int i = 0; i < W; ++i) acc[i] += w * p[i];
+            }
+            for (int i = 0; i < W; ++i) out[i] = acc[i];
+        } else {
+            for (std::uint32_t i = 0; i < length; ++i) out[i] = 0;
+            for (std::uint64_t e = begin; e < end; ++e) {
+                const T* p = source + std::size_t(table.indices[e]) * sl.stride + sl.offset;
+                const T w = T(table.weights[e]);
+                for (std::uint32_t i = 0; i < length; ++i) out[i] += w * p[i];
+            }
+        }
+    }
+}
+
+}  // namespace
+
+template <class T>
+void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
+                       BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
+                       std::uint64_t rowEnd) {
+    assert(sl.valid() && dl.valid() && sl.length == dl.length && level < table.levels.size());
+    const StencilLevel& l = table.levels[level];
+    if (sl.length == 3) return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd);
+    if (sl.length == 4) return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd);
+    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd);
+}
+
+template <class T>
+void evaluateFactorizedRows(const FactorizedTable& table, const T* source, BufferLayout sl,
+                            T* destination, BufferLayout dl, std::uint32_t rowBegin,
+                            std::uint32_t rowEnd) {
+    assert(sl.valid() && dl.valid() && sl.length == dl.length && rowEnd <= table.rowCount());
+    if (sl.length == 3) return factorizedRows<T, 3>(table, source, sl, destination, dl, rowBegin, rowEnd);
+    if (sl.length == 4) return factorizedRows<T, 4>(table, source, sl, destination, dl, rowBegin, rowEnd);
+    factorizedRows<T, 0>(table, source, sl, destination, dl, rowBegin, rowEnd);
+}
+
+template void evaluateLevelRows<float>(const PerLevelTable&, std::size_t, const float*, BufferLayout,
+                                       float*, BufferLayout, std::uint64_t, std::uint64_t);
+template void evaluateLevelRows<double>(const PerLevelTable&, std::size_t, const double*, BufferLayout,
+                                        double*, BufferLayout, std::uint64_t, std::uint64_t);
+template void evaluateFactorizedRows<float>(const FactorizedTable&, const float*, BufferLayout, float*,
+                                            BufferLayout, std::uint32_t, std::uint32_t);
+template void evaluateFactorizedRows<double>(const FactorizedTable&, const double*, BufferLayout,
+                                             double*, BufferLayout, std::uint32_t, std::uint32_t);
+
+}  // namespace psub

@@ -1,0 +1,78 @@
+// psub/evaluator.h: applies stencil tables (psub/tables.h) to vertex buffers on the CPU. One
+// contract for every backend: source buffer + layout, destination buffer + layout, table,
+// row range. Results are gathered per row, so they never depend on threading. Reads tables
+// only, never topology.
+#pragma once
+
+#include "psub/tables.h"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace psub {
+
+// Where a primvar sits in an interleaved buffer: element i occupies
+// buffer[i * stride + offset .. + length). Any length: 3 and 4 have fast paths.
+struct BufferLayout {
+    std::uint32_t offset = 0, length = 3, stride = 3;
+
+    bool valid() const { return length > 0 && offset + length <= stride; }
+};
+
+// Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
+// order): `source` holds the parent level's vertices, `destination` the child level's.
+template <class T>
+void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
+                       BufferLayout sourceLayout, T* destination, BufferLayout destinationLayout,
+                       std::uint64_t rowBegin, std::uint64_t rowEnd);
+
+// Rows [rowBegin, rowEnd) of a factorized table: `source` holds the control points,
+// `destination` the finest level's vertices.
+template <class T>
+void evaluateFactorizedRows(const FactorizedTable& table, const T* source,
+                            BufferLayout sourceLayout, T* destination,
+                            BufferLayout destinationLayout, std::uint32_t rowBegin,
+                            std::uint32_t rowEnd);
+
+enum class TableForm { PerLevel, Factorized };
+
+// The per-frame evaluator: control points in, refined vertices out, on `threads` threads
+// (0: all cores). Buffers for the intermediate levels are allocated once, here; a frame
+// allocates nothing. Keeps references to the tables: they must outlive the evaluator.
+template <class T>
+class CpuEvaluator {
+public:
+    CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTable& factorized,
+                 const SurfaceTable& surface, TableForm form, std::uint32_t width = 3,
+                 int threads = 0);
+
+    std::uint32_t controlCount() const { return perLevel_.controlCount; }
+    std::uint32_t refinedCount() const { return perLevel_.refinedCount(); }
+    std::uint32_t width() const { return width_; }
+    int threads() const { return threads_; }
+
+    // control: controlCount() * width() values, packed; refined: refinedCount() * width().
+    void evaluate(std::span<const T> control, std::span<T> refined);
+
+    // Unit vertex normals (3 per vertex) of the refined surface whose positions are the first
+    // three values of each `width()`-element of `refined`: area-weighted face normals summed
+    // over each vertex's faces.
+    void normals(std::span<const T> refined, std::span<T> normals);
+
+private:
+    const PerLevelTable& perLevel_;
+    const FactorizedTable& factorized_;
+    const SurfaceTable& surface_;
+    TableForm form_;
+    std::uint32_t width_;
+    int threads_;
+    std::vector<T> levels_;                 // intermediate levels, back to back
+    std::vector<std::uint64_t> levelBase_;  // offset of each intermediate level in levels_
+    std::vector<T> faceNormals_;
+};
+
+extern template class CpuEvaluator<float>;
+extern template class CpuEvaluator<double>;
+
+}  // namespace psub

@@ -1,0 +1,47 @@
+// psub/stencils.h: builds the stencil tables of psub/tables.h from a refinement hierarchy with
+// SPEC.md's rules, so that every refined vertex is a fixed linear combination of coarser ones;
+// and `refine`, which takes a mesh all the way to its tables. Reads topology; never evaluates
+// anything per frame.
+#pragma once
+
+#include "psub/tables.h"
+#include "psub/topology.h"
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace psub {
+
+// The per-level table of every step of `hierarchy` (the paired method's rows for the first
+// step when it was preprocessed).
+PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy);
+
+// Composes the per-level rows into one table from control points to the finest level.
+// Weights are accumulated in double and stored as float.
+FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel);
+
+SurfaceTable buildSurfaceTable(const Faces& finest);
+
+struct RefineOptions {
+    int levels = 2;                         // P-S steps after any preprocessing
+    Preprocess preprocess = Preprocess::Auto;
+    bool factorized = false;                // also build the factorized table
+    std::function<void(int level, double seconds)> onLevel;  // progress, after each level
+};
+
+// Everything the per-frame loop needs, and nothing of the topology.
+struct Refinement {
+    bool preprocessed = false;
+    int levels = 0;
+    PerLevelTable perLevel;
+    FactorizedTable factorized;  // empty unless RefineOptions::factorized
+    SurfaceTable surface;
+    double topologyMs = 0, perLevelMs = 0, factorizedMs = 0;
+};
+
+// Refines a checked mesh (see checkMesh) and builds its tables. Throws InputError when
+// preprocessing is needed but Preprocess::Never was asked for.
+Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const RefineOptions& options);
+
+}  // namespace psub

@@ -1,0 +1,77 @@
+// psub/tables.h: the stencil tables, as plain data: what refinement produces and what every
+// evaluator (compute/) consumes. Two forms: per-level kind-coded tables (indices only,
+// weights per row group) and one factorized CSR table from the control points straight to
+// the finest level; plus the finest surface's faces for drawing and normals. No topology.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace psub {
+
+enum class RowKind : std::uint8_t {
+    FaceQuad,      // 4 indices, 1/4 each
+    FaceTriangle,  // 3 indices, 1/3 each
+    Retained,      // 1 index, copied (boundary, non-manifold and unused vertices)
+    VertexQuad,    // interior, all quads: P, n edge neighbours, n diagonals; c, d, e
+    VertexMixed,   // interior with a triangle: P, n edge neighbours, m diagonals; f, g, h
+    FacePolygon,   // the paired method's point of a larger face: all corners, equal weights
+};
+
+// A run of rows of one kind and shape within one level. Row r of the group has `width`
+// = 1 + n + m source indices at indices[indexBegin + (r - rowBegin) * width]: the centre with
+// weight `centre`, then n with weight `edge`, then m with weight `diagonal`.
+struct RowGroup {
+    RowKind kind;
+    std::uint32_t n, m, width;
+    std::uint64_t rowBegin, rowCount, indexBegin;  // rows and indices of the whole table
+    double centre, edge, diagonal;
+};
+
+// One level's slice of the per-level table. Vertex numbers are those of the level (source:
+// parent level, destination: child level), as in SPEC.md's output order.
+struct StencilLevel {
+    std::uint32_t sourceCount, destinationCount;
+    std::uint64_t groupBegin, groupEnd;  // into PerLevelTable::groups
+    std::uint64_t rowBegin, rowEnd;      // into PerLevelTable::destinations
+};
+
+// Per-level, kind-coded table: all levels in one set of contiguous arrays. Each level's rows
+// are grouped by (kind, n, m) and, within a group, ordered by destination.
+struct PerLevelTable {
+    std::uint32_t controlCount = 0;
+    std::vector<StencilLevel> levels;
+    std::vector<RowGroup> groups;
+    std::vector<std::uint32_t> destinations;  // per row: the child vertex it writes
+    std::vector<std::uint32_t> indices;       // per row: its source vertices (parent level)
+
+    std::uint32_t refinedCount() const {
+        return levels.empty() ? controlCount : levels.back().destinationCount;
+    }
+    std::uint64_t bytes() const {
+        return groups.size() * sizeof(RowGroup) + levels.size() * sizeof(StencilLevel) +
+               4 * (destinations.size() + indices.size());
+    }
+};
+
+// Factorized table, like OpenSubdiv's Far::StencilTable: row r (a finest-level vertex, in
+// output order) is sum of weights[j] * control[indices[j]] for j in offsets[r]..offsets[r+1].
+struct FactorizedTable {
+    std::uint32_t controlCount = 0;
+    std::vector<std::uint64_t> offsets{0};
+    std::vector<std::uint32_t> indices;
+    std::vector<float> weights;
+
+    std::uint32_t rowCount() const { return std::uint32_t(offsets.size() - 1); }
+    std::uint64_t bytes() const { return 8 * offsets.size() + 4 * indices.size() + 4 * weights.size(); }
+};
+
+// The finest level's faces as plain arrays, with each vertex's incident faces, for drawing
+// and for per-frame normals (gathered per vertex, so the result is deterministic).
+struct SurfaceTable {
+    std::uint32_t vertexCount = 0;
+    std::vector<std::uint32_t> faceOffsets{0}, faceVerts;      // faces, counter-clockwise
+    std::vector<std::uint32_t> vertexOffsets{0}, vertexFaces;  // faces around each vertex
+};
+
+}  // namespace psub

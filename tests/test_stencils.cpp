@@ -1,0 +1,269 @@
+// Stencil tables and the CPU evaluator against the rule oracle: every model, both table
+// forms, float and double, row ranges, widths, layouts, threads, frames and normals.
+#include "psub/evaluator.h"
+#include "psub/rules.h"
+#include "psub/stencils.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace psub {
+namespace {
+
+using test::load;
+
+struct Refined {
+    test::Loaded loaded;
+    Hierarchy hierarchy;
+    PerLevelTable perLevel;
+    FactorizedTable factorized;
+    SurfaceTable surface;
+};
+
+Refined refineModel(const std::string& path, int steps, Preprocess mode = Preprocess::Auto) {
+    Refined r{load(path), {}, {}, {}, {}};
+    r.hierarchy = test::refine(r.loaded, steps, mode);
+    r.perLevel = buildPerLevelTable(r.hierarchy);
+    r.factorized = buildFactorizedTable(r.perLevel);
+    r.surface = buildSurfaceTable(r.hierarchy.finest().faces);
+    return r;
+}
+
+double diagonal(const std::vector<double>& p) {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        lo[i % 3] = std::min(lo[i % 3], p[i]);
+        hi[i % 3] = std::max(hi[i % 3], p[i]);
+    }
+    return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                     (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
+template <class T>
+std::vector<T> evaluateWith(const Refined& r, TableForm form, const std::vector<double>& control,
+                            int threads = 1) {
+    CpuEvaluator<T> evaluator(r.perLevel, r.factorized, r.surface, form, 3, threads);
+    const std::vector<T> in(control.begin(), control.end());
+    std::vector<T> out(std::size_t(evaluator.refinedCount()) * 3);
+    evaluator.evaluate(in, out);
+    return out;
+}
+
+// |a - b| <= tolerance * (bounding-box diagonal of the control points), index by index.
+template <class T>
+void expectClose(const std::vector<T>& actual, const std::vector<double>& expected, double tolerance,
+                 double scale) {
+    ASSERT_EQ(actual.size(), expected.size());
+    for (std::size_t i = 0; i < expected.size(); ++i)
+        ASSERT_NEAR(double(actual[i]), expected[i], tolerance * std::max(1.0, scale)) << "value " << i;
+}
+
+TEST(Stencils, BothFormsEqualTheRulesOnEveryModel) {
+    for (const std::string& path : test::allValidModels())
+        for (int steps : {1, 3}) {
+            SCOPED_TRACE(path + " steps " + std::to_string(steps));
+            const Refined r = refineModel(path, steps);
+            const std::vector<double> oracle = refinePositions(r.hierarchy, r.loaded.mesh.positions);
+            const double scale = diagonal(r.loaded.mesh.positions);
+            const auto& control = r.loaded.mesh.positions;
+            expectClose(evaluateWith<double>(r, TableForm::PerLevel, control), oracle, 1e-12, scale);
+            expectClose(evaluateWith<double>(r, TableForm::Factorized, control), oracle, 1e-6, scale);
+            expectClose(evaluateWith<float>(r, TableForm::PerLevel, control), oracle, 1e-5, scale);
+            expectClose(evaluateWith<float>(r, TableForm::Factorized, control), oracle, 1e-5, scale);
+        }
+}
+
+TEST(Stencils, PreprocessedQuadMeshAlsoMatches) {
+    const Refined r = refineModel(test::dataPath("cube.obj"), 3, Preprocess::Always);
+    const std::vector<double> oracle = refinePositions(r.hierarchy, r.loaded.mesh.positions);
+    expectClose(evaluateWith<double>(r, TableForm::PerLevel, r.loaded.mesh.positions), oracle, 1e-12, 1);
+    expectClose(evaluateWith<double>(r, TableForm::Factorized, r.loaded.mesh.positions), oracle, 1e-6, 1);
+}
+
+TEST(Stencils, CubeCornerRowIsTheHandComputedStencil) {
+    // Corner 6 = (1,1,1), valence 3: c = 0, d = 2/9 (vertices 2, 5, 7), e = 1/9 (1, 3, 4).
+    const Refined r = refineModel(test::dataPath("cube.obj"), 1);
+    const FactorizedTable& t = r.factorized;
+    std::vector<double> row(8, 0.0);
+    for (std::uint64_t e = t.offsets[6]; e < t.offsets[7]; ++e) row[t.indices[e]] = t.weights[e];
+    const double expected[8] = {0, 1.0 / 9, 2.0 / 9, 1.0 / 9, 1.0 / 9, 2.0 / 9, 0, 2.0 / 9};
+    for (int v = 0; v < 8; ++v) EXPECT_NEAR(row[v], expected[v], 1e-7) << "control " << v;
+    // The face point of face 0 (1 4 3 2): a quarter of each corner.
+    std::vector<double> facePoint(8, 0.0);
+    for (std::uint64_t e = t.offsets[8]; e < t.offsets[9]; ++e) facePoint[t.indices[e]] = t.weights[e];
+    const double quarter[8] = {0.25, 0.25, 0.25, 0.25, 0, 0, 0, 0};
+    for (int v = 0; v < 8; ++v) EXPECT_FLOAT_EQ(float(facePoint[v]), float(quarter[v]));
+}
+
+TEST(Stencils, TableSizesEqualClosedFormCounts) {
+    for (const std::string& path : test::allValidModels()) {
+        SCOPED_TRACE(path);
+        const Refined r = refineModel(path, 3);
+        const Counts input = countMesh(r.loaded.mesh.faces, r.loaded.checked.connectivity);
+        ASSERT_EQ(r.perLevel.levels.size(), r.hierarchy.levels.size() - 1);
+        for (std::size_t k = 0; k < r.perLevel.levels.size(); ++k) {
+            const StencilLevel& level = r.perLevel.levels[k];
+            const Counts parent = countsAfterSteps(input, int(k)), child = countsAfterSteps(input, int(k) + 1);
+            EXPECT_EQ(level.sourceCount, parent.vertices);
+            EXPECT_EQ(level.destinationCount, child.vertices);
+            EXPECT_EQ(level.rowEnd - level.rowBegin, child.vertices);
+            std::uint64_t quadRows = 0, triangleRows = 0;
+            for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+                quadRows += r.perLevel.groups[g].kind == RowKind::FaceQuad ? r.perLevel.groups[g].rowCount : 0;
+                triangleRows += r.perLevel.groups[g].kind == RowKind::FaceTriangle ? r.perLevel.groups[g].rowCount : 0;
+            }
+            EXPECT_EQ(quadRows, parent.quads);
+            EXPECT_EQ(triangleRows, parent.triangles);
+        }
+        EXPECT_EQ(r.factorized.rowCount(), countsAfterSteps(input, int(r.perLevel.levels.size())).vertices);
+        EXPECT_EQ(r.surface.faceOffsets.size() - 1, countsAfterSteps(input, int(r.perLevel.levels.size())).faces);
+    }
+}
+
+TEST(Stencils, EveryLevelWritesEachDestinationOnce) {
+    const Refined r = refineModel(test::dataPath("spot_control_mesh.obj"), 3);
+    for (const StencilLevel& level : r.perLevel.levels) {
+        std::vector<int> written(level.destinationCount, 0);
+        for (std::uint64_t row = level.rowBegin; row < level.rowEnd; ++row) ++written[r.perLevel.destinations[row]];
+        for (int count : written) ASSERT_EQ(count, 1);
+    }
+}
+
+TEST(Evaluator, RowRangesInPiecesEqualTheWhole) {
+    const Refined r = refineModel(test::dataPath("spot_control_mesh.obj"), 2);
+    const BufferLayout packed{0, 3, 3};
+    const std::vector<double>& control = r.loaded.mesh.positions;
+    // Level 0 only (control -> preprocessed): whole, then in uneven pieces.
+    const StencilLevel& level = r.perLevel.levels[0];
+    const std::uint64_t rows = level.rowEnd - level.rowBegin;
+    std::vector<double> whole(3 * std::size_t(level.destinationCount), -1), pieces(whole.size(), -2);
+    evaluateLevelRows(r.perLevel, 0, control.data(), packed, whole.data(), packed, 0, rows);
+    for (std::uint64_t begin = 0, step = 1; begin < rows; begin += step, step = step * 3 + 1)
+        evaluateLevelRows(r.perLevel, 0, control.data(), packed, pieces.data(), packed, begin,
+                          std::min(rows, begin + step));
+    EXPECT_EQ(whole, pieces);
+
+    const std::uint32_t finest = r.factorized.rowCount();
+    std::vector<double> fWhole(3 * std::size_t(finest), -1), fPieces(fWhole.size(), -2);
+    evaluateFactorizedRows(r.factorized, control.data(), packed, fWhole.data(), packed, 0, finest);
+    for (std::uint32_t begin = 0, step = 1; begin < finest; begin += step, step = step * 2 + 1)
+        evaluateFactorizedRows(r.factorized, control.data(), packed, fPieces.data(), packed, begin,
+                               std::min(finest, begin + step));
+    EXPECT_EQ(fWhole, fPieces);
+}
+
+TEST(Evaluator, EveryWidthFromOneToEightCarriesLinearPrimvars) {
+    // Component i of each control point is a fixed linear function of its position; refining
+    // is affine, so component i of each refined point is the same function of the refined
+    // position.
+    const Refined r = refineModel(test::dataPath("spot_control_mesh.obj"), 2);
+    const std::vector<double> positions = refinePositions(r.hierarchy, r.loaded.mesh.positions);
+    auto primvar = [](const double* p, std::uint32_t i) { return (i + 1) * p[0] - 0.5 * i * p[1] + p[2] / (i + 2) + i; };
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
+        for (std::uint32_t width = 1; width <= 8; ++width) {
+            SCOPED_TRACE("width " + std::to_string(width));
+            CpuEvaluator<double> evaluator(r.perLevel, r.factorized, r.surface, form, width, 2);
+            std::vector<double> control(std::size_t(evaluator.controlCount()) * width);
+            for (std::uint32_t v = 0; v < evaluator.controlCount(); ++v)
+                for (std::uint32_t i = 0; i < width; ++i)
+                    control[std::size_t(v) * width + i] = primvar(&r.loaded.mesh.positions[3 * v], i);
+            std::vector<double> refined(std::size_t(evaluator.refinedCount()) * width);
+            evaluator.evaluate(control, refined);
+            for (std::uint32_t v = 0; v < evaluator.refinedCount(); ++v)
+                for (std::uint32_t i = 0; i < width; ++i)
+                    ASSERT_NEAR(refined[std::size_t(v) * width + i], primvar(&positions[3 * v], i), 1e-5)
+                        << "vertex " << v << " component " << i;
+        }
+}
+
+TEST(Evaluator, StridedAndOffsetLayoutsReadAndWriteOnlyTheirSlots) {
+    const Refined r = refineModel(test::dataPath("cube.obj"), 1);
+    const std::vector<double>& control = r.loaded.mesh.positions;
+    const BufferLayout packed{0, 3, 3}, in{2, 3, 7}, out{1, 3, 5};
+    std::vector<double> source(7 * 8, 1e30);  // garbage around the slots must not leak in
+    for (int v = 0; v < 8; ++v)
+        for (int i = 0; i < 3; ++i) source[7 * v + 2 + i] = control[3 * v + i];
+    const std::uint32_t rows = r.factorized.rowCount();
+    std::vector<double> expected(3 * rows), destination(5 * rows, -7.0);
+    evaluateFactorizedRows(r.factorized, control.data(), packed, expected.data(), packed, 0, rows);
+    evaluateFactorizedRows(r.factorized, source.data(), in, destination.data(), out, 0, rows);
+    for (std::uint32_t v = 0; v < rows; ++v) {
+        EXPECT_EQ(destination[5 * v], -7.0);
+        EXPECT_EQ(destination[5 * v + 4], -7.0);
+        for (int i = 0; i < 3; ++i) EXPECT_EQ(destination[5 * v + 1 + i], expected[3 * v + i]);
+    }
+    std::vector<double> levelDestination(5 * rows, -7.0);
+    evaluateLevelRows(r.perLevel, 0, source.data(), in, levelDestination.data(), out, 0, rows);
+    for (std::uint32_t v = 0; v < rows; ++v) {
+        EXPECT_EQ(levelDestination[5 * v], -7.0);
+        for (int i = 0; i < 3; ++i) EXPECT_NEAR(levelDestination[5 * v + 1 + i], expected[3 * v + i], 1e-6);
+    }
+}
+
+TEST(Evaluator, ThreadsGiveBitIdenticalResults) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
+        const auto one = evaluateWith<float>(r, form, r.loaded.mesh.positions, 1);
+        for (int threads : {2, 3, 7}) EXPECT_EQ(one, evaluateWith<float>(r, form, r.loaded.mesh.positions, threads));
+    }
+}
+
+TEST(Evaluator, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {
+    const Refined r = refineModel(test::dataPath("spot_control_mesh.obj"), 3);
+    const double scale = diagonal(r.loaded.mesh.positions);
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
+        CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, form, 3, 2);
+        std::vector<float> control(r.loaded.mesh.positions.size()), refined(3 * std::size_t(evaluator.refinedCount()));
+        for (int frame = 0; frame < 5; ++frame) {
+            std::vector<double> frameControl = r.loaded.mesh.positions;
+            for (std::size_t v = 0; v < frameControl.size() / 3; ++v)  // a twisting wave
+                frameControl[3 * v + 1] += 0.1 * std::sin(frameControl[3 * v] * 3 + frame);
+            std::copy(frameControl.begin(), frameControl.end(), control.begin());
+            evaluator.evaluate(control, refined);
+            expectClose(refined, refinePositions(r.hierarchy, frameControl), 1e-5, scale);
+        }
+    }
+}
+
+TEST(Evaluator, FlatGridNormalsPointUp) {
+    const Refined r = refineModel(test::dataPath("grid4x4.obj"), 3);
+    CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 2);
+    const std::vector<float> control(r.loaded.mesh.positions.begin(), r.loaded.mesh.positions.end());
+    std::vector<float> refined(3 * std::size_t(evaluator.refinedCount())), normals(refined.size());
+    evaluator.evaluate(control, refined);
+    evaluator.normals(refined, normals);
+    for (std::size_t v = 0; v < normals.size() / 3; ++v) {
+        EXPECT_FLOAT_EQ(normals[3 * v + 2], 1.0f);
+        EXPECT_FLOAT_EQ(normals[3 * v], 0.0f);
+    }
+}
+
+TEST(Evaluator, ClosedSurfaceNormalsPointOutward) {
+    const Refined r = refineModel(test::dataPath("cube.obj"), 4);
+    CpuEvaluator<double> evaluator(r.perLevel, r.factorized, r.surface, TableForm::Factorized, 3, 2);
+    std::vector<double> refined(3 * std::size_t(evaluator.refinedCount())), normals(refined.size());
+    evaluator.evaluate(r.loaded.mesh.positions, refined);
+    evaluator.normals(refined, normals);
+    for (std::size_t v = 0; v < normals.size() / 3; ++v) {
+        const double dot = normals[3 * v] * refined[3 * v] + normals[3 * v + 1] * refined[3 * v + 1] +
+                           normals[3 * v + 2] * refined[3 * v + 2];
+        const double length = std::hypot(normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]);
+        EXPECT_GT(dot, 0) << "vertex " << v;
+        EXPECT_NEAR(length, 1.0, 1e-12);
+    }
+}
+
+TEST(Evaluator, RefineFacadeBuildsWhatTheEvaluatorNeeds) {
+    const auto cow = load(test::dataPath("cow.obj"));
+    const Refinement refinement = refine(cow.mesh, cow.checked.connectivity, {2, Preprocess::Auto, true, {}});
+    EXPECT_TRUE(refinement.preprocessed);
+    EXPECT_EQ(refinement.perLevel.levels.size(), 3u);
+    EXPECT_EQ(refinement.factorized.rowCount(), refinement.perLevel.refinedCount());
+    EXPECT_THROW(refine(cow.mesh, cow.checked.connectivity, {2, Preprocess::Never, false, {}}), InputError);
+}
+
+}  // namespace
+}  // namespace psub
