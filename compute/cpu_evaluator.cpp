@@ -18,6 +18,29 @@ std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
     return {rows * t / n, rows * (t + 1) / n};
 }
 
+// This thread's share of a level's rows, balanced by work (source indices plus the write)
+// rather than by row count: a level's face rows are far cheaper than its vertex rows.
+std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, const StencilLevel& level) {
+    const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
+    if (n == 1) return {0, level.rowEnd - level.rowBegin};
+    std::uint64_t total = 0;
+    for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g)
+        total += table.groups[g].rowCount * (table.groups[g].width + 2);
+    // The row at which cumulative work reaches `target`.
+    auto rowAt = [&](std::uint64_t target) {
+        std::uint64_t work = 0;
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+            const RowGroup& group = table.groups[g];
+            const std::uint64_t cost = group.width + 2, groupWork = group.rowCount * cost;
+            if (work + groupWork >= target)
+                return group.rowBegin - level.rowBegin + (target - work + cost - 1) / cost;
+            work += groupWork;
+        }
+        return level.rowEnd - level.rowBegin;
+    };
+    return {t == 0 ? 0 : rowAt(total * t / n), t + 1 == n ? level.rowEnd - level.rowBegin : rowAt(total * (t + 1) / n)};
+}
+
 }  // namespace
 
 template <class T>
@@ -63,7 +86,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
         const StencilLevel& level = perLevel_.levels[k];
-        const auto [begin, end] = share(level.rowEnd - level.rowBegin);
+        const auto [begin, end] = shareByWork(perLevel_, level);
         evaluateLevelRows(perLevel_, k, source, packed, destination, packed, begin, end);
 #pragma omp barrier
     }

@@ -2,6 +2,7 @@
 // fixed-width paths for 3 and 4 values per vertex and a generic one.
 #include "psub/evaluator.h"
 
+#include <algorithm>
 #include <cassert>
 
 namespace psub {
@@ -18,29 +19,44 @@ inline void addElements(T* acc, const std::uint32_t* ix, std::uint32_t count, co
     }
 }
 
-template <class T, int W>
+// Rows r0..r1 of group g. N and M are the group's edge and diagonal counts when known at
+// compile time (the common shapes: face quads and triangles, copies, valence 3 and 4), or -1.
+template <class T, int W, int N, int M>
 void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                 const T* source, BufferLayout sl, T* destination, BufferLayout dl) {
     const T centre = T(g.centre), edge = T(g.edge), diagonal = T(g.diagonal);
+    const std::uint32_t n = N >= 0 ? std::uint32_t(N) : g.n, m = M >= 0 ? std::uint32_t(M) : g.m;
+    const std::uint32_t width = 1 + n + m;
     const std::uint32_t length = W > 0 ? std::uint32_t(W) : sl.length;
     const std::uint32_t* indices = table.indices.data() + g.indexBegin;
     const std::uint32_t* destinations = table.destinations.data() + g.rowBegin;
     for (std::uint64_t r = r0; r < r1; ++r) {
-        const std::uint32_t* ix = indices + r * g.width;
+        const std::uint32_t* ix = indices + r * width;
         T* out = destination + std::size_t(destinations[r]) * dl.stride + dl.offset;
         if constexpr (W > 0) {
             T acc[W] = {}, edges[W] = {}, diagonals[W] = {};
             addElements<T, W>(acc, ix, 1, source, sl, centre);
-            addElements<T, W>(edges, ix + 1, g.n, source, sl, T(1));
-            addElements<T, W>(diagonals, ix + 1 + g.n, g.m, source, sl, T(1));
+            if (N != 0) addElements<T, W>(edges, ix + 1, n, source, sl, T(1));
+            if (M != 0) addElements<T, W>(diagonals, ix + 1 + n, m, source, sl, T(1));
             for (int i = 0; i < W; ++i) out[i] = acc[i] + edge * edges[i] + diagonal * diagonals[i];
         } else {
             for (std::uint32_t i = 0; i < length; ++i) out[i] = 0;
             addElements<T, 0>(out, ix, 1, source, sl, centre);
-            addElements<T, 0>(out, ix + 1, g.n, source, sl, edge);
-            addElements<T, 0>(out, ix + 1 + g.n, g.m, source, sl, diagonal);
+            addElements<T, 0>(out, ix + 1, n, source, sl, edge);
+            addElements<T, 0>(out, ix + 1 + n, m, source, sl, diagonal);
         }
     }
+}
+
+template <class T, int W>
+void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
+                          const T* source, BufferLayout sl, T* destination, BufferLayout dl) {
+    if (g.n == 3 && g.m == 0) return applyGroup<T, W, 3, 0>(table, g, r0, r1, source, sl, destination, dl);
+    if (g.n == 4 && g.m == 4) return applyGroup<T, W, 4, 4>(table, g, r0, r1, source, sl, destination, dl);
+    if (g.n == 0 && g.m == 0) return applyGroup<T, W, 0, 0>(table, g, r0, r1, source, sl, destination, dl);
+    if (g.n == 2 && g.m == 0) return applyGroup<T, W, 2, 0>(table, g, r0, r1, source, sl, destination, dl);
+    if (g.n == 3 && g.m == 3) return applyGroup<T, W, 3, 3>(table, g, r0, r1, source, sl, destination, dl);
+    applyGroup<T, W, -1, -1>(table, g, r0, r1, source, sl, destination, dl);
 }
 
 template <class T, int W>
@@ -51,7 +67,8 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const RowGroup& g = table.groups[gi];
         const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
-        if (begin < end) applyGroup<T, W>(table, g, begin - first, end - first, source, sl, destination, dl);
+        if (begin < end)
+            applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, destination, dl);
     }
 }
 
