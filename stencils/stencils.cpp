@@ -3,6 +3,8 @@
 
 #include "psub/rules.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <map>
@@ -11,12 +13,6 @@
 
 namespace psub {
 namespace {
-
-// One row before grouping: its kind and shape, and its source indices.
-struct Row {
-    RowKind kind;
-    std::uint32_t n, m;
-};
 
 using GroupKey = std::tuple<RowKind, std::uint32_t, std::uint32_t>;
 
@@ -41,77 +37,98 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m) {
     return g;
 }
 
-// Appends the rows of one step (parent level -> child level) to `table`, grouped by shape.
-void appendLevel(PerLevelTable& table, const Level& parent, bool paired) {
-    const Faces& faces = parent.faces;
-    const Connectivity& c = parent.connectivity;
-    const std::uint32_t oldVertices = faces.vertexCount, childCount = oldVertices + faces.faceCount();
+// The rows of one step (parent level -> child level): each child vertex's kind and shape, and
+// its sources written in place. Old vertex v gives row v, face f gives row oldVertices + f.
+struct StepRows {
+    const Faces& faces;
+    const Connectivity& c;
+    bool paired;
 
-    // Each child vertex's row: shape, and its sources in a flat list (rowSources).
-    std::vector<Row> rows(childCount);
-    std::vector<std::uint64_t> rowStart(std::size_t(childCount) + 1, 0);
-    std::vector<std::uint32_t> rowSources;
-    rowSources.reserve(std::size_t(childCount) * 6);
-    for (std::uint32_t v = 0; v < oldVertices; ++v) {
-        rowSources.push_back(v);
-        if (paired || isRetained(c.kind[v])) {
-            rows[v] = {RowKind::Retained, 0, 0};
-        } else {
-            std::uint32_t quads = 0, triangles = 0;
-            for (Index h : c.outgoingOf(v)) rowSources.push_back(faces.verts[c.next[h]]);
-            for (Index h : c.outgoingOf(v)) {
-                if (faces.faceSize(c.faceOf[h]) == 4) {
-                    rowSources.push_back(faces.verts[c.next[c.next[h]]]);
-                    ++quads;
-                } else {
-                    ++triangles;
-                }
-            }
-            const std::uint32_t n = std::uint32_t(c.outgoingOf(v).size());
-            rows[v] = triangles == 0 ? Row{RowKind::VertexQuad, n, n} : Row{RowKind::VertexMixed, n, quads};
+    std::uint32_t oldVertices() const { return faces.vertexCount; }
+    std::uint32_t childCount() const { return faces.vertexCount + faces.faceCount(); }
+
+    GroupKey shape(std::uint32_t d) const {
+        if (d >= oldVertices()) {
+            const std::uint32_t size = faces.faceSize(d - oldVertices());
+            return {size == 4 ? RowKind::FaceQuad : size == 3 ? RowKind::FaceTriangle : RowKind::FacePolygon,
+                    size - 1, 0};
         }
-        rowStart[v + 1] = rowSources.size();
-    }
-    for (Index f = 0; f < faces.faceCount(); ++f) {
-        const std::uint32_t size = faces.faceSize(f);
-        const RowKind kind = size == 4 ? RowKind::FaceQuad
-                             : size == 3 ? RowKind::FaceTriangle
-                                         : RowKind::FacePolygon;
-        rows[oldVertices + f] = {kind, size - 1, 0};
-        for (Index v : faces.face(f)) rowSources.push_back(v);
-        rowStart[oldVertices + f + 1] = rowSources.size();
+        if (paired || isRetained(c.kind[d])) return {RowKind::Retained, 0, 0};
+        std::uint32_t quads = 0, triangles = 0;
+        for (Index h : c.outgoingOf(d)) ++(faces.faceSize(c.faceOf[h]) == 4 ? quads : triangles);
+        const std::uint32_t n = quads + triangles;
+        return triangles == 0 ? GroupKey{RowKind::VertexQuad, n, n} : GroupKey{RowKind::VertexMixed, n, quads};
     }
 
-    // Group rows by (kind, n, m), each group's rows in destination order.
-    std::map<GroupKey, std::uint64_t> rowsPerGroup;
-    for (const Row& row : rows) ++rowsPerGroup[{row.kind, row.n, row.m}];
-    StencilLevel level{oldVertices, childCount, table.groups.size(), 0,
-                       table.destinations.size(), 0};
-    std::map<GroupKey, std::size_t> groupOf;
+    // Sources of row d: the centre, its n edge neighbours, its m diagonals (SPEC.md's Pi, Pj).
+    void sources(std::uint32_t d, std::uint32_t* out) const {
+        if (d >= oldVertices()) {
+            for (Index v : faces.face(d - oldVertices())) *out++ = v;
+            return;
+        }
+        *out++ = d;
+        if (paired || isRetained(c.kind[d])) return;
+        for (Index h : c.outgoingOf(d)) *out++ = faces.verts[c.next[h]];
+        for (Index h : c.outgoingOf(d))
+            if (faces.faceSize(c.faceOf[h]) == 4) *out++ = faces.verts[c.next[c.next[h]]];
+    }
+};
+
+// Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
+void appendLevel(PerLevelTable& table, const Level& parent, bool paired) {
+    const StepRows step{parent.faces, parent.connectivity, paired};
+    const std::uint32_t childCount = step.childCount();
+
+    // Pass 1: the shape of every row; groups numbered as first met, with a one-entry cache
+    // since neighbouring rows mostly share a shape.
+    std::map<GroupKey, std::uint32_t> firstMet;
+    std::vector<GroupKey> keys;
+    std::vector<std::uint32_t> groupOfRow(childCount);
+    std::vector<std::uint64_t> rowsOfGroup;
+    GroupKey lastKey{RowKind::Retained, ~0u, ~0u};
+    std::uint32_t lastGroup = 0;
+    for (std::uint32_t d = 0; d < childCount; ++d) {
+        const GroupKey key = step.shape(d);
+        if (key != lastKey) {
+            auto [it, inserted] = firstMet.try_emplace(key, std::uint32_t(keys.size()));
+            if (inserted) {
+                keys.push_back(key);
+                rowsOfGroup.push_back(0);
+            }
+            lastKey = key;
+            lastGroup = it->second;
+        }
+        groupOfRow[d] = lastGroup;
+        ++rowsOfGroup[lastGroup];
+    }
+
+    // Groups in (kind, n, m) order, laid out after what the table holds.
+    StencilLevel level{step.oldVertices(), childCount, table.groups.size(), 0, table.destinations.size(), 0};
+    std::vector<std::uint32_t> position(keys.size());  // group number -> index in table.groups
     std::uint64_t rowBegin = table.destinations.size(), indexBegin = table.indices.size();
-    for (const auto& [key, count] : rowsPerGroup) {
+    for (const auto& [key, group] : firstMet) {
         RowGroup g = makeGroup(std::get<0>(key), std::get<1>(key), std::get<2>(key));
         g.rowBegin = rowBegin;
-        g.rowCount = count;
+        g.rowCount = rowsOfGroup[group];
         g.indexBegin = indexBegin;
-        rowBegin += count;
-        indexBegin += count * g.width;
-        groupOf[key] = table.groups.size();
+        rowBegin += g.rowCount;
+        indexBegin += g.rowCount * g.width;
+        position[group] = std::uint32_t(table.groups.size());
         table.groups.push_back(g);
     }
     level.groupEnd = table.groups.size();
     level.rowEnd = rowBegin;
+
+    // Pass 2: every row's destination and sources, written in place.
     table.destinations.resize(rowBegin);
     table.indices.resize(indexBegin);
-    std::vector<std::uint64_t> filled(table.groups.size() - level.groupBegin, 0);
+    std::vector<std::uint64_t> filled(keys.size(), 0);
     for (std::uint32_t d = 0; d < childCount; ++d) {
-        const std::size_t gi = groupOf[{rows[d].kind, rows[d].n, rows[d].m}];
-        const RowGroup& g = table.groups[gi];
-        const std::uint64_t r = filled[gi - level.groupBegin]++;
+        const std::uint32_t group = groupOfRow[d];
+        const RowGroup& g = table.groups[position[group]];
+        const std::uint64_t r = filled[group]++;
         table.destinations[g.rowBegin + r] = d;
-        std::copy(rowSources.begin() + std::ptrdiff_t(rowStart[d]),
-                  rowSources.begin() + std::ptrdiff_t(rowStart[d + 1]),
-                  table.indices.begin() + std::ptrdiff_t(g.indexBegin + r * g.width));
+        step.sources(d, &table.indices[g.indexBegin + r * g.width]);
     }
     table.levels.push_back(level);
 }
@@ -126,60 +143,91 @@ PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy) {
     return table;
 }
 
+namespace {
+
+// Sparse rows in compressed form, weights in double while composing.
+struct SparseRows {
+    std::vector<std::uint64_t> offsets{0};
+    std::vector<std::uint32_t> indices;
+    std::vector<double> weights;
+};
+
+// Destinations [first, last) of one level composed with the rows that map control points to the
+// parent level: each child row is the weighted sum of its sources' rows, merged in a dense
+// accumulator and emitted with indices ascending.
+SparseRows composeRows(const PerLevelTable& table, const std::vector<std::uint32_t>& groupOf, const std::vector<std::uint64_t>& rowOf,
+                       const SparseRows& parent, std::uint32_t first, std::uint32_t last) {
+    SparseRows out;
+    out.offsets.reserve(std::size_t(last - first) + 1);
+    std::vector<double> accumulator(table.controlCount, 0.0);
+    std::vector<std::uint32_t> seenBy(table.controlCount, ~0u);  // the row that last touched it
+    std::vector<std::uint32_t> touched;
+    for (std::uint32_t d = first; d < last; ++d) {
+        const RowGroup& g = table.groups[groupOf[d]];
+        const std::uint32_t* sources = &table.indices[g.indexBegin + (rowOf[d] - g.rowBegin) * g.width];
+        for (std::uint32_t j = 0; j < g.width; ++j) {
+            const double w = j == 0 ? g.centre : j <= g.n ? g.edge : g.diagonal;
+            for (std::uint64_t e = parent.offsets[sources[j]]; e < parent.offsets[sources[j] + 1]; ++e) {
+                const std::uint32_t i = parent.indices[e];
+                if (seenBy[i] != d) {
+                    seenBy[i] = d;
+                    accumulator[i] = 0.0;
+                    touched.push_back(i);
+                }
+                accumulator[i] += w * parent.weights[e];
+            }
+        }
+        std::sort(touched.begin(), touched.end());
+        for (std::uint32_t i : touched) {
+            out.indices.push_back(i);
+            out.weights.push_back(accumulator[i]);
+        }
+        touched.clear();
+        out.offsets.push_back(out.indices.size());
+    }
+    return out;
+}
+
+}  // namespace
+
 FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel) {
     const std::uint32_t controls = perLevel.controlCount;
-    // Current rows (control -> current level), starting with the identity.
-    std::vector<std::uint64_t> offsets(std::size_t(controls) + 1);
-    std::vector<std::uint32_t> indices(controls);
-    std::vector<double> weights(controls, 1.0);
-    for (std::uint32_t v = 0; v <= controls; ++v) offsets[v] = v;
-    for (std::uint32_t v = 0; v < controls; ++v) indices[v] = v;
+    SparseRows current;  // control -> current level; the identity to begin with
+    current.offsets.resize(std::size_t(controls) + 1);
+    for (std::uint32_t v = 0; v <= controls; ++v) current.offsets[v] = v;
+    for (std::uint32_t v = 0; v < controls; ++v) current.indices.push_back(v);
+    current.weights.assign(controls, 1.0);
 
-    std::vector<double> accumulator(controls, 0.0);
-    std::vector<bool> touched(controls, false);
-    std::vector<std::uint32_t> touchedList;
     for (const StencilLevel& level : perLevel.levels) {
-        // Where each destination's row lives: its group and position.
-        std::vector<std::pair<std::uint64_t, std::uint64_t>> rowOf(level.destinationCount);
-        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi)
-            for (std::uint64_t r = 0; r < perLevel.groups[gi].rowCount; ++r)
-                rowOf[perLevel.destinations[perLevel.groups[gi].rowBegin + r]] = {gi, r};
-        std::vector<std::uint64_t> nextOffsets{0};
-        nextOffsets.reserve(std::size_t(level.destinationCount) + 1);
-        std::vector<std::uint32_t> nextIndices;
-        std::vector<double> nextWeights;
-        for (std::uint32_t d = 0; d < level.destinationCount; ++d) {
-            const RowGroup& g = perLevel.groups[rowOf[d].first];
-            const std::uint32_t* sources = &perLevel.indices[g.indexBegin + rowOf[d].second * g.width];
-            for (std::uint32_t j = 0; j < g.width; ++j) {
-                const double w = j == 0 ? g.centre : j <= g.n ? g.edge : g.diagonal;
-                for (std::uint64_t e = offsets[sources[j]]; e < offsets[sources[j] + 1]; ++e) {
-                    if (!touched[indices[e]]) {
-                        touched[indices[e]] = true;
-                        touchedList.push_back(indices[e]);
-                    }
-                    accumulator[indices[e]] += w * weights[e];
-                }
+        std::vector<std::uint32_t> groupOf(level.destinationCount);
+        std::vector<std::uint64_t> rowOf(level.destinationCount);
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g)
+            for (std::uint64_t r = perLevel.groups[g].rowBegin; r < perLevel.groups[g].rowBegin + perLevel.groups[g].rowCount; ++r) {
+                groupOf[perLevel.destinations[r]] = std::uint32_t(g);
+                rowOf[perLevel.destinations[r]] = r;
             }
-            std::sort(touchedList.begin(), touchedList.end());
-            for (std::uint32_t i : touchedList) {
-                nextIndices.push_back(i);
-                nextWeights.push_back(accumulator[i]);
-                accumulator[i] = 0;
-                touched[i] = false;
-            }
-            touchedList.clear();
-            nextOffsets.push_back(nextIndices.size());
+        // Contiguous slices of destinations, one per thread, joined in order.
+        const int slices = level.destinationCount > 20000 ? omp_get_max_threads() : 1;
+        std::vector<SparseRows> parts(static_cast<std::size_t>(slices));
+#pragma omp parallel for num_threads(slices) schedule(static, 1)
+        for (int t = 0; t < slices; ++t)
+            parts[std::size_t(t)] = composeRows(perLevel, groupOf, rowOf, current,
+                                               std::uint32_t(std::uint64_t(level.destinationCount) * std::uint64_t(t) / std::uint64_t(slices)),
+                                               std::uint32_t(std::uint64_t(level.destinationCount) * std::uint64_t(t + 1) / std::uint64_t(slices)));
+        SparseRows next = std::move(parts[0]);
+        for (std::size_t t = 1; t < parts.size(); ++t) {
+            const std::uint64_t base = next.indices.size();
+            for (std::size_t r = 1; r < parts[t].offsets.size(); ++r) next.offsets.push_back(base + parts[t].offsets[r]);
+            next.indices.insert(next.indices.end(), parts[t].indices.begin(), parts[t].indices.end());
+            next.weights.insert(next.weights.end(), parts[t].weights.begin(), parts[t].weights.end());
         }
-        offsets = std::move(nextOffsets);
-        indices = std::move(nextIndices);
-        weights = std::move(nextWeights);
+        current = std::move(next);
     }
     FactorizedTable table;
     table.controlCount = controls;
-    table.offsets = std::move(offsets);
-    table.indices = std::move(indices);
-    table.weights.assign(weights.begin(), weights.end());
+    table.offsets = std::move(current.offsets);
+    table.indices = std::move(current.indices);
+    table.weights.assign(current.weights.begin(), current.weights.end());
     return table;
 }
 
