@@ -2,10 +2,15 @@
 // they print live here; the engine itself is in topology/ and stencils/.
 #include "commands.h"
 
+#include "analyze.h"
+
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
+#if PSUB_HAVE_VULKAN
+#include "psub/vulkan_evaluator.h"
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -13,6 +18,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 
 #include <unistd.h>
 
@@ -45,20 +51,22 @@ std::uint64_t physicalMemory() {
     return pages > 0 && pageSize > 0 ? std::uint64_t(pages) * std::uint64_t(pageSize) : 0;
 }
 
-// Rough peak bytes of refining to `steps` topological steps: every level's faces and
-// connectivity stay alive (about 44 B per half-edge, 30 B per vertex), the per-level table,
-// plus two position arrays and the OBJ text of the finest level.
+// Rough peak bytes of refining to `steps` topological steps with psub::refine, which keeps
+// two levels of topology at a time (about 44 B per half-edge, 30 B per vertex, 8 B per face),
+// plus every level's table rows, the finest surface, the evaluator's level buffers (doubles)
+// and the OBJ text of the finest level.
 double estimateBytes(const Counts& input, int steps) {
-    double bytes = 0;
-    for (int k = 0; k <= steps; ++k) {
-        const Counts c = countsAfterSteps(input, k);
-        const double halfedges = 2.0 * double(c.edges) - double(c.boundaryEdges);
-        bytes += 44 * halfedges + 30 * double(c.vertices) + 8 * double(c.faces);
-        if (k > 0) bytes += 4 * (halfedges + 2 * double(c.vertices));  // per-level table rows
-    }
+    auto halfedges = [](const Counts& c) { return 2.0 * double(c.edges) - double(c.boundaryEdges); };
+    auto topology = [&](const Counts& c) { return 44 * halfedges(c) + 30 * double(c.vertices) + 8 * double(c.faces); };
     const Counts finest = countsAfterSteps(input, steps);
-    return bytes + 2 * 24 * double(finest.vertices) + 40 * double(finest.vertices) +
-           20 * double(finest.faces);
+    double bytes = topology(finest) + (steps > 0 ? topology(countsAfterSteps(input, steps - 1)) : 0.0);
+    for (int k = 1; k <= steps; ++k) {
+        const Counts parent = countsAfterSteps(input, k - 1), child = countsAfterSteps(input, k);
+        bytes += 4 * (double(child.vertices) + double(parent.vertices) + 3 * halfedges(parent));  // table
+        bytes += 24 * double(child.vertices);  // evaluator buffers
+    }
+    bytes += 4 * (double(finest.faces) + 2 * halfedges(finest) + double(finest.vertices));  // surface
+    return bytes + 60 * double(finest.vertices) + 25 * double(finest.faces);                 // OBJ text
 }
 
 std::string humanBytes(double bytes) {
@@ -70,23 +78,27 @@ std::string humanBytes(double bytes) {
     return text;
 }
 
-// Throws InputError when `steps` steps would not fit in `limit` bytes (or in 32-bit indices),
-// naming the estimate and the deepest level that fits.
-void guardMemory(const Mesh& mesh, const Counts& input, int steps, std::uint64_t limit) {
+// Throws InputError when `--levels levels` would not fit in `limit` bytes (or in 32-bit
+// indices), naming the estimate and the most levels that fit. A level is `stepsPerLevel`
+// topological steps (2 for Catmull-Clark, which quadruples the faces), after `extraSteps`
+// (the paired method).
+void guardMemory(const Mesh& mesh, const Counts& input, int levels, int stepsPerLevel, int extraSteps,
+                 std::uint64_t limit) {
     if (limit == 0) limit = physicalMemory() / 4 * 3;
-    auto fits = [&](int k) {
-        const Counts c = countsAfterSteps(input, k);
-        return estimateBytes(input, k) <= double(limit) &&
+    auto steps = [&](int l) { return extraSteps + stepsPerLevel * l; };
+    auto fits = [&](int l) {
+        const Counts c = countsAfterSteps(input, steps(l));
+        return estimateBytes(input, steps(l)) <= double(limit) &&
                2.0 * double(c.edges) < double(kNoIndex) && double(c.vertices) < double(kNoIndex);
     };
-    if (fits(steps)) return;
-    int deepest = -1;
-    while (deepest + 1 < steps && fits(deepest + 1)) ++deepest;
-    throw InputError(mesh.source.path + ": " + std::to_string(steps) +
-                     " refinement steps would need about " + humanBytes(estimateBytes(input, steps)) +
-                     " (limit " + humanBytes(double(limit)) + ", 32-bit indices); " +
-                     (deepest >= 0 ? "at most " + std::to_string(deepest) + " steps fit"
-                                   : std::string("not even the input fits")));
+    if (fits(levels)) return;
+    int most = -1;
+    while (most + 1 < levels && fits(most + 1)) ++most;
+    throw InputError(mesh.source.path + ": --levels " + std::to_string(levels) + " would need about " +
+                     humanBytes(estimateBytes(input, steps(levels))) + " (limit " + humanBytes(double(limit)) +
+                     ", and 32-bit indices); " +
+                     (most >= 0 ? "--levels " + std::to_string(most) + " is the most that fits"
+                                : std::string("not even the input fits")));
 }
 
 const char* preprocessName(bool preprocessed) { return preprocessed ? "after preprocessing" : "no preprocessing"; }
@@ -106,36 +118,77 @@ Faces finestFaces(const SurfaceTable& surface) {
     return faces;
 }
 
+// Refined positions from the Vulkan evaluator (float, per-level tables), and the device's
+// name; nothing, with `why`, when no Vulkan device can be used (or psub was built without).
+std::optional<std::vector<double>> evaluateOnVulkan(const Refinement& r, const std::vector<double>& control,
+                                                    std::string& device, std::string& why) {
+#if PSUB_HAVE_VULKAN
+    try {
+        VulkanContext context;
+        VulkanEvaluator evaluator(context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3);
+        const std::vector<float> in(control.begin(), control.end());
+        std::vector<float> out(3 * std::size_t(evaluator.refinedCount()));
+        evaluator.evaluate(in, out);
+        device = context.deviceName();
+        return std::vector<double>(out.begin(), out.end());
+    } catch (const VulkanError& e) {
+        why = e.what();
+    }
+#else
+    (void)r, (void)control, (void)device;
+    why = "this psub was built without Vulkan (PSUB_BUILD_VULKAN=OFF)";
+#endif
+    return std::nullopt;
+}
+
 int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, o.preprocess,
                                                loaded.mesh.source);
     const int steps = o.levels + (preprocess ? 1 : 0);
-    guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity), steps, o.maxMemory);
+    guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity), o.levels, 1, preprocess ? 1 : 0,
+                o.maxMemory);
     const auto start = Clock::now();
     RefineOptions options{o.levels, o.preprocess, false, {}};
+    options.rules = o.rules;
     if (progressWanted())
         options.onLevel = [&](int level, double seconds) {
             std::fprintf(stderr, "psub: level %d/%d topology in %.1f ms\n", level, steps, seconds * 1e3);
         };
     const Refinement refinement = refine(loaded.mesh, loaded.checked.connectivity, options);
-    CpuEvaluator<double> evaluator(refinement.perLevel, refinement.factorized, refinement.surface,
-                                   TableForm::PerLevel);
-    std::vector<double> positions(3 * std::size_t(evaluator.refinedCount()));
-    evaluator.evaluate(loaded.mesh.positions, positions);
+    std::vector<double> positions;
+    std::string backendNote;
+    if (o.backend != Backend::Cpu) {
+        std::string device, why;
+        if (auto evaluated = evaluateOnVulkan(refinement, loaded.mesh.positions, device, why)) {
+            positions = std::move(*evaluated);
+            backendNote = ", float on Vulkan: " + device;
+        } else if (o.backend == Backend::Vulkan) {
+            std::fprintf(stderr, "psub: error: --backend vulkan: %s\n", why.c_str());
+            return 1;
+        } else {
+            std::fprintf(stderr, "psub: Vulkan unavailable (%s); evaluating on the CPU\n", why.c_str());
+        }
+    }
+    if (positions.empty()) {
+        CpuEvaluator<double> evaluator(refinement.perLevel, refinement.factorized, refinement.surface,
+                                       TableForm::PerLevel);
+        positions.resize(3 * std::size_t(evaluator.refinedCount()));
+        evaluator.evaluate(loaded.mesh.positions, positions);
+    }
     const Faces finest = finestFaces(refinement.surface);
     const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") +
-                             preprocessName(preprocess);
+                             preprocessName(preprocess) + (o.rules == Rules::Robust ? ", robust rules" : "");
     writeFileAtomic(o.output, formatObj(finest, positions, header(o.input, what)));
-    std::printf("%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
-                finest.vertexCount, finest.faceCount(), what.c_str(), msSince(start));
+    std::printf("%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
+                finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
     return 0;
 }
 
 int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
     // Catmull-Clark quadruples the faces: estimate it as two P-S-sized steps per level.
-    guardMemory(loaded.mesh, countMesh(loaded.mesh.faces, loaded.checked.connectivity),
-                2 * o.levels, o.maxMemory);
+    guardMemory(loaded.mesh, countMesh(loaded.mesh.faces, loaded.checked.connectivity), o.levels, 2, 0,
+                o.maxMemory);
     const auto start = Clock::now();
     const std::vector<CatmarkLevel> levels =
         refineCatmark(loaded.mesh.faces, loaded.mesh.positions, o.levels);
@@ -251,6 +304,44 @@ void printShapes(const Loaded& loaded, const Hierarchy& hierarchy,
 }
 
 // The engine's real path: tables built once, then frames of animated control points.
+// The demo's Vulkan line: the per-level tables on the Vulkan device, the same frames as the
+// CPU lines, and the largest difference to the CPU evaluator's result; or why it is not there.
+void printVulkanFrames(const Refinement& r, const Loaded& loaded) {
+#if PSUB_HAVE_VULKAN
+    try {
+        VulkanContext context;
+        VulkanEvaluator gpu(context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3);
+        std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(gpu.refinedCount())),
+            cpuOut(out.size());
+        std::vector<double> frameMs, gpuMs;
+        for (int frame = 0; frame < 25; ++frame) {
+            for (std::size_t v = 0; v < control.size() / 3; ++v)
+                for (int axis = 0; axis < 3; ++axis)
+                    control[3 * v + axis] = float(loaded.mesh.positions[3 * v + axis] +
+                                                  (axis == 1 ? 0.05 * std::sin(loaded.mesh.positions[3 * v] + 0.3 * frame) : 0));
+            const auto start = Clock::now();
+            gpu.evaluate(control, out);
+            frameMs.push_back(msSince(start));
+            gpuMs.push_back(gpu.lastFrameTimes().totalMs);
+        }
+        std::sort(frameMs.begin(), frameMs.end());
+        std::sort(gpuMs.begin(), gpuMs.end());
+        CpuEvaluator<float> cpu(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+        cpu.evaluate(control, cpuOut);
+        double worst = 0;
+        for (std::size_t i = 0; i < out.size(); ++i) worst = std::max(worst, std::abs(double(out[i]) - cpuOut[i]));
+        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (GPU %.3f ms; %s)  max |vulkan - cpu| = %.2g\n",
+                    "vulkan", frameMs[frameMs.size() / 2], frameMs.front(), gpuMs[gpuMs.size() / 2],
+                    context.deviceName().c_str(), worst);
+    } catch (const VulkanError& e) {
+        std::printf("  %-10s  unavailable: %s\n", "vulkan", e.what());
+    }
+#else
+    (void)r, (void)loaded;
+    std::printf("  %-10s  unavailable: psub was built without Vulkan\n", "vulkan");
+#endif
+}
+
 void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<double>& rulePositions) {
     const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, {levels, Preprocess::Auto, true, {}});
     const double refined = r.perLevel.refinedCount();
@@ -287,6 +378,7 @@ void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<do
                     form == TableForm::PerLevel ? "per-level" : "factorized", frameMs[frameMs.size() / 2],
                     frameMs.front(), evaluator.threads(), worst);
     }
+    printVulkanFrames(r, loaded);
 }
 
 void writeDemoMeshes(const DemoOptions& options, const std::string& model, const Loaded& loaded,
@@ -324,8 +416,8 @@ int runStats(const StatsOptions& options) {
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity,
                                                options.preprocess, loaded.mesh.source);
-    guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity),
-                options.levels + (preprocess ? 1 : 0), options.maxMemory);
+    guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity), options.levels, 1,
+                preprocess ? 1 : 0, options.maxMemory);
     std::vector<double> levelMs{loadMs};
     const Hierarchy hierarchy = refineTopology(faces, loaded.checked.connectivity, preprocess,
                                                options.levels,
@@ -363,6 +455,7 @@ int runDemo(const DemoOptions& options) {
     printShapes(loaded, hierarchy, positions);
     printTablesAndFrames(loaded, options.levels, positions.back());
     if (!options.outputDir.empty()) writeDemoMeshes(options, model, loaded, hierarchy, positions.back());
+    printVerdicts(loaded.mesh, loaded.checked.connectivity, options.levels);
     std::printf("\nNext:\n"
                 "  psub subdivide %s -o out.obj --levels %d      # refined mesh as OBJ\n"
                 "  psub subdivide %s -o cc.obj --levels %d --scheme cc\n"

@@ -1,6 +1,7 @@
 // The psub commands, each a plain function over parsed options (see main.cpp for the CLI).
 #pragma once
 
+#include "psub/rules.h"
 #include "psub/topology.h"
 
 #include <cstdint>
@@ -10,11 +11,17 @@ namespace psub::cli {
 
 enum class Scheme { PS, CatmullClark };
 
+// Where subdivide evaluates the stencils: the CPU (double), a Vulkan device (float), or
+// Vulkan when a device is usable and the CPU otherwise (with a message on stderr).
+enum class Backend { Cpu, Vulkan, Auto };
+
 struct SubdivideOptions {
     std::string input, output;
     int levels = 1;
     Scheme scheme = Scheme::PS;
     Preprocess preprocess = Preprocess::Auto;
+    Rules rules = Rules::Paper;
+    Backend backend = Backend::Cpu;
     std::uint64_t maxMemory = 0;  // bytes; 0 = default (3/4 of physical memory)
 };
 

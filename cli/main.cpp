@@ -1,9 +1,12 @@
 // psub: the command-line program. Parses arguments (CLI11) and maps outcomes to exit codes:
 // 0 success, 1 bad input (one line on stderr), 2 usage error.
+#include "analyze.h"
+#include "bench.h"
 #include "commands.h"
 
 #include <CLI/CLI.hpp>
 
+#include <csignal>
 #include <cstdio>
 #include <map>
 
@@ -15,6 +18,9 @@ using namespace psub::cli;
 const std::map<std::string, Preprocess> kPreprocess = {
     {"auto", Preprocess::Auto}, {"always", Preprocess::Always}, {"never", Preprocess::Never}};
 const std::map<std::string, Scheme> kScheme = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
+const std::map<std::string, Rules> kRules = {{"paper", Rules::Paper}, {"robust", Rules::Robust}};
+const std::map<std::string, Backend> kBackend = {
+    {"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}, {"auto", Backend::Auto}};
 
 // Levels are capped so closed-form counts stay in 64 bits; the memory guard stops far sooner.
 constexpr int kMaxLevels = 30;
@@ -51,6 +57,8 @@ void addMaxMemory(CLI::App* command, std::uint64_t& target) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    // A file-size limit (ulimit -f) must fail the write with an error, not kill the program.
+    std::signal(SIGXFSZ, SIG_IGN);
     CLI::App app{"psub: P-S (Liu-Yang-Guan) subdivision surfaces, with OpenSubdiv's "
                  "Catmull-Clark beside them for comparison."};
     app.require_subcommand(1);
@@ -68,6 +76,15 @@ int main(int argc, char** argv) {
     addChoice(sub, "--scheme", subdivide.scheme, kScheme,
               "ps: P-S; cc: Catmull-Clark through OpenSubdiv (edge-only boundary, no creases)", "ps");
     addPreprocess(sub, subdivide.preprocess);
+    addChoice(sub, "--rules", subdivide.rules, kRules,
+              "paper: SPEC.md exactly; robust (beyond the paper): interior valence 2 gets c, d, e = "
+              "0, 1/3, 1/6 instead of the paper's folding -1/2, 1/2, 1/4 (--scheme ps only)",
+              "paper");
+    addChoice(sub, "--backend", subdivide.backend, kBackend,
+              "where the stencils are evaluated: cpu (double); vulkan (float, on the device chosen by "
+              "capability or $PSUB_VULKAN_DEVICE; exit 1 without one); auto (vulkan when a device is "
+              "usable, else the CPU with a message)",
+              "cpu");
     addMaxMemory(sub, subdivide.maxMemory);
     sub->footer("Example:\n  psub subdivide data/cow.obj -o cow_ps4.obj --levels 4\n"
                 "  psub subdivide data/cow.obj -o cow_cc2.obj --levels 2 --scheme cc\n"
@@ -92,6 +109,122 @@ int main(int argc, char** argv) {
         ->check(CLI::ExistingDirectory);
     de->footer("Example:\n  psub demo\n  psub demo --output-dir /tmp --levels 2");
 
+    AnalyzeOptions analyze;
+    CLI::App* an = app.add_subcommand(
+        "analyze", "Smoothness per valence from the engine's own stencils: eigenvalues, C1, characteristic map");
+    an->add_option("--valence", analyze.valences, "valences: A..B, N, or a comma list of both (2..64)")
+        ->check(CLI::Validator(
+            [](std::string& value) {
+                try {
+                    parseValences(value);
+                } catch (const InputError& e) {
+                    return std::string(e.what());
+                }
+                return std::string();
+            },
+            "VALENCES"))
+        ->default_val("2..16");
+    an->add_option("--rules", analyze.rules, "paper, robust (beyond the paper: valence 2 fixed) or both")
+        ->check(CLI::IsMember({"paper", "robust", "both"}))->default_val("both");
+    an->add_flag("--json", analyze.json,
+                 "a JSON array, one record per (valence, rules): n, rules, eigenvalues (the leading 6, "
+                 "descending by modulus, each [re, im]), c1_necessary, characteristic_map_injective, "
+                 "cc_lambda1, and more");
+    an->add_option("--rings", analyze.rings, "control rings of the characteristic map check")
+        ->check(CLI::Range(4, 10))->default_val(8);
+    an->add_option("--tangent-levels", analyze.levels, "two-step levels of the tangent-plane check")
+        ->check(CLI::Range(1, 40))->default_val(10);
+    an->footer("For an interior vertex of valence n surrounded by quads, builds the two-step P-S matrix from the\n"
+               "engine's stencil tables, and Catmull-Clark's from OpenSubdiv's. The paper's rules fail C1 at\n"
+               "valence 2; --rules robust passes.\n"
+               "Examples:\n  psub analyze --valence 2..16\n  psub analyze --valence 2 --rules both\n"
+               "  psub analyze --valence 3,5 --rules paper --json");
+
+    CompareOptions compare;
+    CLI::App* co = app.add_subcommand(
+        "compare", "P-S after 2k steps against Catmull-Clark after k: volume, area, box, Hausdorff distance");
+    co->add_option("input", compare.input, "input mesh (.obj)")->required();
+    co->add_option("-l,--levels", compare.levels, "P-S steps, even (Catmull-Clark gets half as many)")
+        ->check(CLI::Range(0, 12) & CLI::Validator(
+                                        [](std::string& value) {
+                                            const bool odd = !value.empty() && std::string("13579").find(value.back()) != std::string::npos;
+                                            return odd ? std::string("must be even") : std::string();
+                                        },
+                                        "EVEN"))
+        ->default_val(2);
+    co->add_option("--rules", compare.rules, "P-S rules: paper or robust")
+        ->check(CLI::IsMember({"paper", "robust"}))->default_val("paper");
+    co->add_option("--plot", compare.plot, "also draw the comparison as a PNG here (ratios and distance histograms)");
+    co->add_option("--samples", compare.samples, "sample intervals per triangle edge for the distances")
+        ->check(CLI::Range(1, 16))->default_val(2);
+    co->add_flag("--json", compare.json, "print the numbers as one JSON object");
+    co->footer("Distances: points sampled on every face of one mesh, nearest point on the other's triangles,\n"
+               "both ways; Hausdorff is the larger maximum. P-S comes from the engine's tables (after the\n"
+               "paired method when the input is not quads), Catmull-Clark from OpenSubdiv.\n"
+               "Examples:\n  psub compare data/cube.obj --levels 4 --plot cube.png\n"
+               "  psub compare data/cow.obj --levels 4 --json");
+
+    bench::BenchOptions benchOptions;
+    CLI::App* be = app.add_subcommand(
+        "bench", "Time PSub against OpenSubdiv on this machine, same run: build, per frame, bandwidth");
+    be->add_option("models", benchOptions.models,
+                   "models (.obj) to measure instead of the defaults (the bundled cow, Spot and cube "
+                   "plus a generated torus); torus:N generates an N x N quad torus");
+    be->add_option("--json", benchOptions.jsonPath, "also write every measurement as JSON here");
+    be->add_option("--plot", benchOptions.plotPath, "also draw per-frame time against refined faces (SVG)");
+    be->add_option("--frames", benchOptions.frames, "timed frames per configuration")
+        ->check(CLI::Range(1, 1000000))->default_val(30);
+    be->add_option("--warmup", benchOptions.warmup, "untimed frames before them")
+        ->check(CLI::Range(0, 1000))->default_val(3);
+    be->add_option("--frame-budget", benchOptions.frameBudgetSeconds,
+                   "seconds per configuration: beyond it, fewer frames (at least 10) are timed")
+        ->check(CLI::PositiveNumber)->default_val(6);
+    be->add_flag("--quick", benchOptions.quick, "smallest size per model and 5 frames (a smoke test)");
+    be->add_option("-l,--levels", benchOptions.levels,
+                   "Catmull-Clark levels 1..N (small models go on while they have at most "
+                   "--extend-below faces)")
+        ->check(CLI::Range(1, 10))->default_val(3);
+    be->add_option("--extend-below", benchOptions.extendBelow,
+                   "keep adding levels beyond --levels while the refined mesh has at most this many faces")
+        ->default_val(200000);
+    be->add_option("--max-faces", benchOptions.maxFaces, "skip sizes with more refined faces than this")
+        ->check(CLI::PositiveNumber)->default_val(20000000);
+    be->add_option("--max-factorized-faces", benchOptions.maxFactorizedFaces,
+                   "build PSub's factorized table only up to this many refined faces (it grows with "
+                   "the levels: about 350 B per vertex at 6 P-S levels)")
+        ->default_val(5000000);
+    be->add_option("--torus", benchOptions.torus,
+                   "the generated torus has N x N quads (0: none); only with the default models")
+        ->check(CLI::Validator(
+            [](std::string& value) {
+                int n = -1;
+                try {
+                    n = std::stoi(value);
+                } catch (const std::exception&) {
+                }
+                return n == 0 || (n >= 3 && n <= 4096) ? std::string() : "expected 0 or 3..4096";
+            },
+            "0 or 3..4096"))
+        ->default_val(512);
+    be->footer(
+        "What is measured, per model and per matched size (P-S levels with the face count of "
+        "Catmull-Clark level k):\n"
+        "  build      psub::refine (topology + per-level table, + factorized table) against OpenSubdiv's\n"
+        "             TopologyRefinerFactory + RefineUniform + StencilTableFactory (factorized, cascading)\n"
+        "  per frame  median and min of --frames frames of moving control points: psub-cpu-perlevel and\n"
+        "             psub-cpu-factorized (1 thread and all) against osd-cpu and osd-omp (1 and all\n"
+        "             threads; factorized and cascading tables), OpenSubdiv in the faster of its 3- and\n"
+        "             4-float layouts; speed-ups are against its fastest configuration in the same run\n"
+        "  bandwidth  STREAM-style triad (1 thread, all threads), each evaluator's bytes per frame and\n"
+        "             its fraction of the triad\n"
+        "  shape      face counts per step of both schemes (the paper's Table I), volume and bounding-box\n"
+        "             diagonal of both refined meshes\n"
+        "Markdown on stdout, progress on stderr. Timings are never part of the tests.\n"
+        "Examples:\n"
+        "  psub bench --json bench.json --plot bench.svg     # defaults: a few minutes\n"
+        "  psub bench /path/to/stanford-bunny.obj data/spot_control_mesh.obj --json bunny.json\n"
+        "  psub bench --quick                                # smallest size of each model");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::Success& e) {
@@ -104,11 +237,30 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "psub subdivide: --preprocess applies to --scheme ps only\n");
         return 2;
     }
+    if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--rules")) {
+        std::fprintf(stderr, "psub subdivide: --rules applies to --scheme ps only\n");
+        return 2;
+    }
+    if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--backend")) {
+        std::fprintf(stderr, "psub subdivide: --backend applies to --scheme ps only\n");
+        return 2;
+    }
 
     try {
         if (sub->parsed()) return runSubdivide(subdivide);
         if (st->parsed()) return runStats(stats);
         if (de->parsed()) return runDemo(demo);
+        if (an->parsed()) return runAnalyze(analyze);
+        if (co->parsed()) return runCompare(compare);
+        if (be->parsed()) {
+            benchOptions.dataDir = dataDir();
+            for (int i = 0; i < argc; ++i) {
+                const std::string arg = argv[i];
+                benchOptions.command += (i ? " " : "") +
+                                        (arg.find(' ') == std::string::npos ? arg : "'" + arg + "'");
+            }
+            return bench::runBench(benchOptions);
+        }
     } catch (const InputError& e) {
         std::fprintf(stderr, "psub: error: %s\n", e.what());
         return 1;

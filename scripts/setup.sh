@@ -1,24 +1,23 @@
 #!/usr/bin/env bash
 # PSub one-step set-up: installs the Debian packages the build needs (quiet when they are
-# already there), builds in ./build, then runs `psub demo` (mode demo) or the tests (mode test).
+# already there), builds, then runs `psub demo` (mode demo, ./build), the tests (mode test,
+# ./build), or the tests under AddressSanitizer + UBSan (mode sanitize, ./build-asan).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:-demo}
-case "$mode" in demo | test) ;; *) echo "usage: scripts/setup.sh demo|test" >&2; exit 2 ;; esac
+case "$mode" in demo | test | sanitize) ;; *) echo "usage: scripts/setup.sh demo|test|sanitize" >&2; exit 2 ;; esac
 
-packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev)
-missing=()
-for package in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo="sudo"
-  echo "setup: installing ${missing[*]}"
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev libeigen3-dev libpng-dev
+          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools)
+scripts/install-packages.sh "${packages[@]}"
+
+if [ "$mode" = sanitize ]; then
+  cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPSUB_SANITIZE=ON >/dev/null
+  cmake --build build-asan -j "$(nproc)"
+  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+    ctest --test-dir build-asan --output-on-failure -j "$(nproc)"
+  exit 0
 fi
-
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DPSUB_WERROR=ON >/dev/null
 cmake --build build -j "$(nproc)"
 if [ "$mode" = demo ]; then

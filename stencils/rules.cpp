@@ -5,7 +5,10 @@
 
 namespace psub {
 
-VertexWeights quadVertexWeights(Index n) {
+const char* rulesName(Rules rules) { return rules == Rules::Robust ? "robust" : "paper"; }
+
+VertexWeights quadVertexWeights(Index n, Rules rules) {
+    if (rules == Rules::Robust && n == 2) return {0.0, 1.0 / 3, 1.0 / 6};
     const double nd = n;
     return {(nd - 3) / nd, 2 / (nd * nd), 1 / (nd * nd)};
 }
@@ -37,7 +40,7 @@ std::vector<double> pairedPositions(const Faces& faces, std::span<const double> 
 }
 
 std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
-                                std::span<const double> positions) {
+                                std::span<const double> positions, Rules rules) {
     std::vector<double> out;
     out.reserve(3 * (std::size_t(faces.vertexCount) + faces.faceCount()));
     for (Index v = 0; v < faces.vertexCount; ++v) {
@@ -64,7 +67,7 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
             for (int axis = 0; axis < 3; ++axis) diagonalSum[axis] += positions[3 * d + axis];
         }
         const Index n = c.valence[v];
-        const VertexWeights w = triangles == 0 ? quadVertexWeights(n) : mixedVertexWeights(n, quads);
+        const VertexWeights w = triangles == 0 ? quadVertexWeights(n, rules) : mixedVertexWeights(n, quads);
         for (int axis = 0; axis < 3; ++axis)
             out.push_back(w.centre * p[axis] + w.edge * edgeSum[axis] +
                           w.diagonal * diagonalSum[axis]);
@@ -74,17 +77,18 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
 }
 
 std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,
-                                         std::span<const double> parentPositions) {
+                                         std::span<const double> parentPositions, Rules rules) {
     const Level& parent = hierarchy.levels[k - 1];
     const bool paired = hierarchy.preprocessed && k == 1;
     return paired ? pairedPositions(parent.faces, parentPositions)
-                  : psPositions(parent.faces, parent.connectivity, parentPositions);
+                  : psPositions(parent.faces, parent.connectivity, parentPositions, rules);
 }
 
-std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control) {
+std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control,
+                                    Rules rules) {
     std::vector<double> positions(control.begin(), control.end());
     for (std::size_t k = 1; k < hierarchy.levels.size(); ++k)
-        positions = refineLevelPositions(hierarchy, k, positions);
+        positions = refineLevelPositions(hierarchy, k, positions, rules);
     return positions;
 }
 

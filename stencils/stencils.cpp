@@ -16,7 +16,7 @@ namespace {
 
 using GroupKey = std::tuple<RowKind, std::uint32_t, std::uint32_t>;
 
-RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m) {
+RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) {
     RowGroup g{kind, n, m, 1 + n + m, 0, 0, 0, 1.0, 0.0, 0.0};
     switch (kind) {
     case RowKind::FaceQuad:
@@ -24,7 +24,7 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m) {
     case RowKind::FacePolygon: g.centre = g.edge = 1.0 / g.width; break;
     case RowKind::Retained: break;
     case RowKind::VertexQuad: {
-        const VertexWeights w = quadVertexWeights(n);
+        const VertexWeights w = quadVertexWeights(n, rules);
         std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre, w.edge, w.diagonal);
         break;
     }
@@ -75,7 +75,7 @@ struct StepRows {
 };
 
 // Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
-void appendLevel(PerLevelTable& table, const Level& parent, bool paired) {
+void appendLevel(PerLevelTable& table, const Level& parent, bool paired, Rules rules) {
     const StepRows step{parent.faces, parent.connectivity, paired};
     const std::uint32_t childCount = step.childCount();
 
@@ -107,7 +107,7 @@ void appendLevel(PerLevelTable& table, const Level& parent, bool paired) {
     std::vector<std::uint32_t> position(keys.size());  // group number -> index in table.groups
     std::uint64_t rowBegin = table.destinations.size(), indexBegin = table.indices.size();
     for (const auto& [key, group] : firstMet) {
-        RowGroup g = makeGroup(std::get<0>(key), std::get<1>(key), std::get<2>(key));
+        RowGroup g = makeGroup(std::get<0>(key), std::get<1>(key), std::get<2>(key), rules);
         g.rowBegin = rowBegin;
         g.rowCount = rowsOfGroup[group];
         g.indexBegin = indexBegin;
@@ -135,11 +135,11 @@ void appendLevel(PerLevelTable& table, const Level& parent, bool paired) {
 
 }  // namespace
 
-PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy) {
+PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy, Rules rules) {
     PerLevelTable table;
     table.controlCount = hierarchy.levels.front().faces.vertexCount;
     for (std::size_t k = 1; k < hierarchy.levels.size(); ++k)
-        appendLevel(table, hierarchy.levels[k - 1], hierarchy.preprocessed && k == 1);
+        appendLevel(table, hierarchy.levels[k - 1], hierarchy.preprocessed && k == 1, rules);
     return table;
 }
 
@@ -231,11 +231,9 @@ FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel) {
     return table;
 }
 
-SurfaceTable buildSurfaceTable(const Faces& finest) {
+SurfaceTable buildSurfaceTable(Faces finest) {
     SurfaceTable surface;
     surface.vertexCount = finest.vertexCount;
-    surface.faceOffsets = finest.offsets;
-    surface.faceVerts = finest.verts;
     surface.vertexOffsets.assign(std::size_t(finest.vertexCount) + 1, 0);
     for (Index v : finest.verts) ++surface.vertexOffsets[v + 1];
     for (Index v = 0; v < finest.vertexCount; ++v) surface.vertexOffsets[v + 1] += surface.vertexOffsets[v];
@@ -243,6 +241,8 @@ SurfaceTable buildSurfaceTable(const Faces& finest) {
     std::vector<std::uint32_t> fill(surface.vertexOffsets.begin(), surface.vertexOffsets.end() - 1);
     for (Index f = 0; f < finest.faceCount(); ++f)
         for (Index v : finest.face(f)) surface.vertexFaces[fill[v]++] = f;
+    surface.faceOffsets = std::move(finest.offsets);
+    surface.faceVerts = std::move(finest.verts);
     return surface;
 }
 
@@ -258,14 +258,25 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     Refinement out;
     out.levels = options.levels;
     out.preprocessed = needsPreprocessing(mesh.faces, connectivity, options.preprocess, mesh.source);
+    // Level by level, keeping only the parent's topology: each step's table is built as soon
+    // as its parent exists, and the parent is dropped (the peak is two levels, not all).
+    out.perLevel.controlCount = mesh.faces.vertexCount;
+    Level parent{mesh.faces, connectivity};
+    const int steps = options.levels + (out.preprocessed ? 1 : 0);
+    for (int k = 1; k <= steps; ++k) {
+        auto start = Clock::now();
+        Level child = refineLevel(parent);
+        const double topologyMs = ms(start);
+        out.topologyMs += topologyMs;
+        start = Clock::now();
+        appendLevel(out.perLevel, parent, out.preprocessed && k == 1, options.rules);
+        out.perLevelMs += ms(start);
+        if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
+        parent = std::move(child);
+    }
     auto start = Clock::now();
-    const Hierarchy hierarchy = refineTopology(mesh.faces, connectivity, out.preprocessed,
-                                               options.levels, options.onLevel);
-    out.topologyMs = ms(start);
-    start = Clock::now();
-    out.perLevel = buildPerLevelTable(hierarchy);
-    out.surface = buildSurfaceTable(hierarchy.finest().faces);
-    out.perLevelMs = ms(start);
+    out.surface = buildSurfaceTable(std::move(parent.faces));
+    out.perLevelMs += ms(start);
     if (options.factorized) {
         start = Clock::now();
         out.factorized = buildFactorizedTable(out.perLevel);

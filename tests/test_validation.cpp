@@ -397,6 +397,19 @@ TEST_F(CliTest, EveryBadFileExitsOneWithOneErrorLineAndNoOutput) {
     }
 }
 
+TEST_F(CliTest, FullDiskLeavesNoPartialFileAndExitsOne) {
+    // A 64 KiB file-size limit stands in for a full disk: the refined cow is megabytes.
+    const fs::path outFile = root_ / "stdout.txt", errFile = root_ / "stderr.txt";
+    const std::string command = "ulimit -f 128; '" PSUB_EXE "' subdivide '" + std::string(PSUB_DATA) +
+                                "/cow.obj' -o '" + output() + "' --levels 2 >'" + outFile.string() +
+                                "' 2>'" + errFile.string() + "' </dev/null";
+    const int raw = std::system(command.c_str());
+    ASSERT_TRUE(raw != -1 && WIFEXITED(raw)) << command;
+    EXPECT_EQ(WEXITSTATUS(raw), 1);
+    EXPECT_TRUE(contains(readText(errFile), "cannot write")) << readText(errFile);
+    EXPECT_TRUE(entriesOf(out_).empty()) << "left behind: " << entriesOf(out_).front();
+}
+
 TEST_F(CliTest, BadInputLeavesAnExistingOutputFileUntouched) {
     std::ofstream(output()) << "previous result\n";
     const Result r = psub("subdivide '" + badPath("nonmanifold_edge") + "' -o '" + output() + "' --levels 2");
@@ -433,7 +446,18 @@ TEST_F(CliTest, LevelCountBeyondMemoryExitsOneBeforeWriting) {
     ASSERT_FALSE(lines.empty());
     EXPECT_EQ(lines.back().rfind("psub: error: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(lines.back(), "cow.obj")) << r.err;
+    EXPECT_TRUE(contains(lines.back(), "PiB")) << r.err;  // the estimate: thousands of terabytes
+    EXPECT_TRUE(contains(lines.back(), "is the most that fits")) << r.err;
     EXPECT_TRUE(entriesOf(out_).empty());
+}
+
+TEST_F(CliTest, MaxMemoryNamesTheDeepestLevelThatFits) {
+    const Result r = psub("subdivide '" PSUB_DATA "/cow.obj' -o '" + output() + "' --levels 6 --max-memory 100M");
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "limit 100.0 MiB")) << r.err;
+    EXPECT_TRUE(contains(r.err, "--levels 4 is the most that fits")) << r.err;
+    EXPECT_TRUE(entriesOf(out_).empty());
+    EXPECT_EQ(psub("subdivide '" PSUB_DATA "/cow.obj' -o '" + output() + "' --levels 2 --max-memory 100M").status, 0);
 }
 
 TEST_F(CliTest, MissingRequiredOptionExitsTwo) {

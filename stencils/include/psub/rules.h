@@ -15,8 +15,18 @@ struct VertexWeights {
     double centre, edge, diagonal;
 };
 
-// All incident faces quads: c = (n-3)/n, d = 2/n^2, e = 1/n^2 (n = valence).
-VertexWeights quadVertexWeights(Index n);
+// Which rules a refinement follows. Paper: SPEC.md exactly (the default everywhere).
+// Robust (beyond the paper, never the default): the same, except that an interior vertex of
+// valence 2 with both faces quads gets c, d, e = 0, 1/3, 1/6, where the paper's c = -1/2
+// folds the two faces back to back.
+enum class Rules { Paper, Robust };
+
+// "paper" or "robust".
+const char* rulesName(Rules rules);
+
+// All incident faces quads: c = (n-3)/n, d = 2/n^2, e = 1/n^2 (n = valence), except
+// Rules::Robust at n = 2: 0, 1/3, 1/6. n >= 2.
+VertexWeights quadVertexWeights(Index n, Rules rules = Rules::Paper);
 
 // At least one incident triangle: f = 1/(1 + n/2 + m/4), g = f/2, h = f/4 (m = quads).
 VertexWeights mixedVertexWeights(Index n, Index m);
@@ -30,13 +40,15 @@ std::vector<double> pairedPositions(const Faces& faces, std::span<const double> 
 // One P-S step's positions: V-vertices by the rules above, then F-vertices (face averages).
 // The mesh must be P-S input (quads, triangles only on the boundary).
 std::vector<double> psPositions(const Faces& faces, const Connectivity& connectivity,
-                                std::span<const double> positions);
+                                std::span<const double> positions, Rules rules = Rules::Paper);
 
 // Positions of hierarchy.levels[k] from those of levels[k-1] (paired method or P-S step).
 std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,
-                                         std::span<const double> parentPositions);
+                                         std::span<const double> parentPositions,
+                                         Rules rules = Rules::Paper);
 
 // Positions of the finest level of `hierarchy` from the control positions of levels[0].
-std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control);
+std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control,
+                                    Rules rules = Rules::Paper);
 
 }  // namespace psub

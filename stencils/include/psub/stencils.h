@@ -4,6 +4,7 @@
 // anything per frame.
 #pragma once
 
+#include "psub/rules.h"
 #include "psub/tables.h"
 #include "psub/topology.h"
 
@@ -14,20 +15,21 @@
 namespace psub {
 
 // The per-level table of every step of `hierarchy` (the paired method's rows for the first
-// step when it was preprocessed).
-PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy);
+// step when it was preprocessed), with the weights of `rules` (see psub/rules.h).
+PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy, Rules rules = Rules::Paper);
 
 // Composes the per-level rows into one table from control points to the finest level.
 // Weights are accumulated in double and stored as float.
 FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel);
 
-SurfaceTable buildSurfaceTable(const Faces& finest);
+SurfaceTable buildSurfaceTable(Faces finest);
 
 struct RefineOptions {
     int levels = 2;                         // P-S steps after any preprocessing
     Preprocess preprocess = Preprocess::Auto;
     bool factorized = false;                // also build the factorized table
     std::function<void(int level, double seconds)> onLevel;  // progress, after each level
+    Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
 };
 
 // Everything the per-frame loop needs, and nothing of the topology.

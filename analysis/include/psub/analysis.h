@@ -1,0 +1,164 @@
+// psub/analysis.h: the engine checks the paper's claims for itself, from its own stencil
+// tables. Around an interior vertex of valence n surrounded by quads: the local TWO-step
+// subdivision matrix (P-S turns the grid by 45 degrees each step, so one step is not
+// self-similar), its leading eigenvalues and the necessary C1 conditions, the characteristic
+// map, and a numerical tangent-plane check; Catmull-Clark's matrix from OpenSubdiv's stencils
+// beside it. On whole meshes: P-S after 2k steps against Catmull-Clark after k steps (volume,
+// area, bounding box, two-sided Hausdorff distance) and a small PNG plot of it.
+// Never used per frame; clarity over speed.
+#pragma once
+
+#include "psub/rules.h"
+#include "psub/topology.h"
+
+#include <algorithm>
+#include <array>
+#include <complex>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace psub {
+
+// ---------------------------------------------------------------------------------------
+// Local meshes around an extraordinary vertex
+
+// Where a vertex sits in the quad grid around a centre of valence n. Sector s (0..n-1) lies
+// between spokes s and s+1; (i, j) counts grid steps along spoke s and spoke s+1. Canonical
+// form: the centre is {0, 0, 0}; every other grid point has j >= 1 (the point (s, i, 0) on
+// spoke s is written (s-1, 0, i)). sector < 0: not a grid point (boundary triangles' points).
+struct GridKey {
+    int sector = -1, i = 0, j = 0;
+
+    bool valid() const { return sector >= 0; }
+    int ring() const { return std::max(i, j); }  // 0 for the centre
+    bool operator==(const GridKey&) const = default;
+};
+
+// The vertex of valence `valence` (index 0) with `rings` rings of quads around it
+// (valence * rings^2 quads, a disk). Planar layout: sector s is the unit grid of a quadrant,
+// opened to an angle of 2 pi / valence (z -> |z| e^(i arg(z) 4 / valence), turned by
+// 2 pi s / valence), plus `bump` times a smooth height field in z. valence >= 2, rings >= 1.
+struct LocalMesh {
+    Index valence = 0;
+    int rings = 0;
+    Mesh mesh;
+    std::vector<GridKey> keys;  // per vertex, canonical
+};
+LocalMesh makeLocalMesh(Index valence, int rings, double bump = 0);
+
+// A local subdivision matrix on an invariant neighbourhood of the centre: the vertices of
+// rings 0..rings, 1 + valence * rings * (rings + 1) of them, ordered by ring, then sector,
+// i, j. Row r holds the refined vertex with grid key keys[r] (on the refined grid, whose unit
+// is half the coarse one) as weights of the coarse vertices keys[0..size()).
+struct LocalMatrix {
+    Index valence = 0;
+    int rings = 0;
+    std::vector<GridKey> keys;
+    std::vector<double> weights;  // dense, row-major, size() x size()
+
+    std::size_t size() const { return keys.size(); }
+    double at(std::size_t row, std::size_t column) const { return weights[row * size() + column]; }
+};
+
+// The two-step P-S matrix from the engine's own per-level tables (buildPerLevelTable with
+// `rules` on makeLocalMesh(valence, rings + 2), two steps composed in double); refined and
+// coarse vertices are matched by grid key. rings >= 3 (the smallest invariant neighbourhood).
+// Throws std::logic_error when a row reaches outside the neighbourhood or does not sum to 1.
+LocalMatrix psTwoStepMatrix(Index valence, Rules rules, int rings = 3);
+
+// Catmull-Clark's one-step matrix from OpenSubdiv's stencils
+// (Far::StencilTableFactoryReal<double> on a Far::TopologyRefiner of makeLocalMesh, one
+// uniform level), matched by grid key the same way. rings >= 1. Same checks.
+LocalMatrix catmarkOneStepMatrix(Index valence, int rings = 1);
+
+// Catmull-Clark's subdominant eigenvalue in closed form:
+// (5 + cos(2 pi / n) + cos(pi / n) sqrt(2 (9 + cos(2 pi / n)))) / 16.
+double catmarkSubdominantClosedForm(Index valence);
+
+// All eigenvalues (Eigen::EigenSolver), descending by modulus; ties: larger real part, then
+// larger imaginary part first.
+std::vector<std::complex<double>> eigenvalues(const LocalMatrix& matrix);
+
+// ---------------------------------------------------------------------------------------
+// Smoothness at one valence
+
+struct ValenceOptions {
+    int characteristicRings = 8;  // rings of the characteristic map's control net, >= 4
+    int tangentLevels = 10;       // two-step levels of the tangent-plane check, >= 1
+    double tolerance = 1e-8;      // relative: "real", "equal" and "larger" for eigenvalues
+};
+
+struct ValenceReport {
+    Index valence = 0;
+    Rules rules = Rules::Paper;
+    std::size_t matrixSize = 0;  // of the 3-ring two-step matrix: 1 + 12 valence
+    std::vector<std::complex<double>> eigenvalues;  // the leading 6, descending by modulus
+    // lambda0 = 1, lambda1 = lambda2 real and equal, 1 > lambda1 > |lambda3|: necessary for C1.
+    bool c1Necessary = false;
+    double lambda1 = 0;                    // real part of the subdominant eigenvalue
+    double lambda3OverLambda1Squared = 0;  // |lambda3| / lambda1^2: curvature (1: bounded)
+    // Characteristic map: the two subdominant eigenvectors, extended to characteristicRings
+    // rings, map the control net to the plane. Injective when every control ring winds once
+    // around the origin (all the same way) and every face of the outer annulus
+    // (rings characteristicRings/2 .. characteristicRings, which two-step refinement maps
+    // onto the next annulus in) has area of that same sign.
+    bool characteristicMapInjective = false;
+    std::vector<int> ringWindings;          // rings 1..characteristicRings
+    std::uint64_t annulusFaces = 0;         // faces checked in the outer annulus
+    std::uint64_t foldedAnnulusFaces = 0;   // of them, with the wrong sign or no area
+    std::uint64_t foldedFaces = 0;          // the same over all rings (information only)
+    // Tangent plane: a bumpy 3-ring neighbourhood refined two steps at a time (cropped to the
+    // invariant neighbourhood each time): the largest angle between the normals of two faces
+    // within ring 2, per level 0..tangentLevels. Tends to 0 where the limit is C1.
+    std::vector<double> normalSpreadDegrees;
+    // Catmull-Clark at the same valence: lambda1 of OpenSubdiv's one-step matrix, and the
+    // closed form it is checked against.
+    double ccLambda1 = 0, ccLambda1ClosedForm = 0;
+};
+
+// Everything above for one valence (>= 2) and rule set.
+ValenceReport analyzeValence(Index valence, Rules rules, const ValenceOptions& options = {});
+
+// ---------------------------------------------------------------------------------------
+// Fidelity: P-S against Catmull-Clark on a mesh
+
+struct MeshMeasures {
+    double volume = 0;  // signed, fan-triangulated faces (divergence theorem); closed meshes
+    double area = 0;
+    std::array<double, 3> lo{}, hi{};  // bounding box of the vertices used by faces
+    double diagonal() const;
+};
+
+MeshMeasures measureMesh(const Faces& faces, std::span<const double> positions);
+
+// Distances from points sampled on every face of `from` (faces fan-triangulated; each triangle
+// sampled on a barycentric grid with `samplesPerEdge` intervals, corners included) to the
+// nearest point of the triangles of `to`, found through a uniform grid of cells.
+// samplesPerEdge >= 1. Both meshes must have at least one face.
+std::vector<double> surfaceDistances(const Faces& from, std::span<const double> fromPositions,
+                                     const Faces& to, std::span<const double> toPositions,
+                                     int samplesPerEdge);
+
+struct Fidelity {
+    int psSteps = 0, ccLevels = 0;
+    Index psFaces = 0, ccFaces = 0;
+    MeshMeasures input, ps, cc;
+    std::vector<double> psToCc, ccToPs;  // sampled distances, each direction
+    double hausdorff() const;            // max over both directions
+    double meanDistance() const;         // over all samples of both directions
+};
+
+// P-S after `psSteps` (even) steps with `rules` (plus the paired method when the input needs
+// it, through the engine's tables and CPU evaluator) against OpenSubdiv's Catmull-Clark after
+// psSteps / 2 levels, on a checked mesh. samplesPerEdge 0: measures only, no distances.
+Fidelity compareWithCatmark(const Mesh& mesh, const Connectivity& connectivity, int psSteps,
+                            Rules rules = Rules::Paper, int samplesPerEdge = 2);
+
+// A PNG (libpng) of `fidelity`: bars of P-S / Catmull-Clark for volume, area and box
+// diagonal, and the histograms of both distance directions relative to the box diagonal,
+// titled `title`. Written atomically; throws InputError when the file cannot be written.
+void writeFidelityPlot(const std::string& path, const Fidelity& fidelity, const std::string& title);
+
+}  // namespace psub

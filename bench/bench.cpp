@@ -1,0 +1,346 @@
+// psub bench: models, matched sizes, PSub's side of each size, and the run as a whole.
+// OpenSubdiv's side is in osd.cpp, the machine and bandwidth in machine.cpp, the output in
+// report.cpp. See README.md for what is measured and how bytes per frame are counted.
+#include "detail.h"
+
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <numbers>
+
+namespace psub::bench {
+
+Mesh makeTorus(int n) {
+    if (n < 3) throw std::invalid_argument("makeTorus: n must be at least 3");
+    const Index size = Index(n);
+    Mesh mesh;
+    mesh.faces.vertexCount = size * size;
+    mesh.positions.reserve(3 * std::size_t(size) * size);
+    const double major = 1.0, minor = 0.4, step = 2 * std::numbers::pi / n;
+    for (Index i = 0; i < size; ++i)
+        for (Index j = 0; j < size; ++j) {
+            const double u = step * i, v = step * j, ring = major + minor * std::cos(v);
+            mesh.positions.insert(mesh.positions.end(),
+                                  {ring * std::cos(u), ring * std::sin(u), minor * std::sin(v)});
+        }
+    mesh.faces.verts.reserve(4 * std::size_t(size) * size);
+    mesh.faces.offsets.reserve(std::size_t(size) * size + 1);
+    auto at = [size](Index i, Index j) { return (i % size) * size + j % size; };
+    for (Index i = 0; i < size; ++i)
+        for (Index j = 0; j < size; ++j) {
+            // Along u, then along v: du x dv points out of the tube.
+            const Index corners[4] = {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)};
+            mesh.faces.addFace(corners);
+        }
+    mesh.source.path = "torus" + std::to_string(n) + " (generated)";
+    return mesh;
+}
+
+namespace detail {
+namespace {
+
+struct Model {
+    std::string name, path;
+    Mesh mesh;
+    Connectivity connectivity;
+};
+
+Model loadModel(const std::string& path) {
+    Model model;
+    model.path = path;
+    model.name = std::filesystem::path(path).stem().string();
+    std::vector<std::string> warnings;
+    model.mesh = readObj(path, &warnings);
+    CheckedMesh checked = checkMesh(model.mesh);
+    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    model.connectivity = std::move(checked.connectivity);
+    return model;
+}
+
+Model torusModel(int n) {
+    Model model;
+    model.mesh = makeTorus(n);
+    model.name = "torus" + std::to_string(n);
+    model.path = "(generated: " + std::to_string(n) + "x" + std::to_string(n) + " quads)";
+    model.connectivity = checkMesh(model.mesh).connectivity;
+    return model;
+}
+
+// "torus:N" names the generated N x N torus.
+int torusSize(const std::string& name) {
+    const std::string digits = name.substr(6);
+    if (digits.empty() || digits.size() > 4 || digits.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoi(digits) < 3)
+        throw InputError(name + ": a generated torus is named torus:N with N from 3 to 9999");
+    return std::stoi(digits);
+}
+
+// PSub at `levels` P-S steps: refine() with both tables, then per-level and factorized
+// evaluators on one thread and on all. Returns the refined shape.
+Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const FrameSettings& frames,
+              int allThreads, Progress& progress, const std::string& label, std::vector<Record>& records,
+              std::vector<std::string>& warnings) {
+    progress.show(label + ": PSub topology + tables");
+    // Built up to 3 times while that takes under a second in all; the fastest of each part.
+    Refinement refinement;
+    double topologyMs = 1e300, perLevelMs = 1e300, factorizedMs = 1e300;
+    int repetitions = 0;
+    RefineOptions options;
+    options.levels = levels;
+    options.preprocess = Preprocess::Auto;
+    options.factorized = withFactorized;
+    const auto buildStart = Clock::now();
+    do {
+        refinement = Refinement{};
+        refinement = refine(model.mesh, model.connectivity, options);
+        topologyMs = std::min(topologyMs, refinement.topologyMs);
+        perLevelMs = std::min(perLevelMs, refinement.perLevelMs);
+        factorizedMs = std::min(factorizedMs, refinement.factorizedMs);
+        ++repetitions;
+    } while (repetitions < kBuildRepetitions && msSince(buildStart) < kBuildSeconds * 1e3);
+    const PerLevelTable& perLevel = refinement.perLevel;
+    const FactorizedTable& factorized = refinement.factorized;
+    const std::size_t controlCount = perLevel.controlCount, refinedCount = perLevel.refinedCount();
+    const std::uint64_t faces = refinement.surface.faceOffsets.size() - 1;
+    const Animation animation(model.mesh.positions, boxDiagonal(model.mesh.positions));
+
+    std::uint64_t levelVertices = 0;  // each level's source + destination vertices
+    for (const StencilLevel& level : perLevel.levels)
+        levelVertices += std::uint64_t(level.sourceCount) + level.destinationCount;
+
+    std::vector<float> control(3 * controlCount), out(3 * refinedCount), reference;
+    Shape shape;
+    std::vector<int> threadCounts{1};
+    if (allThreads > 1) threadCounts.push_back(allThreads);
+    std::vector<TableForm> forms{TableForm::PerLevel};
+    if (withFactorized) forms.push_back(TableForm::Factorized);
+    for (TableForm form : forms)
+        for (int threads : threadCounts) {
+            const bool isPerLevel = form == TableForm::PerLevel;
+            Record r;
+            r.model = model.name;
+            r.scheme = "ps";
+            r.levels = levels;
+            r.ccLevel = k;
+            r.refinedFaces = faces;
+            r.refinedVertices = refinedCount;
+            r.controlVertices = controlCount;
+            r.evaluator = isPerLevel ? "psub-cpu-perlevel" : "psub-cpu-factorized";
+            r.table = isPerLevel ? "per-level" : "factorized";
+            r.threads = threads;
+            r.layoutFloats = 3;
+            r.topologyMs = topologyMs;
+            r.tableMs = perLevelMs + (isPerLevel ? 0 : factorizedMs);
+            r.buildRepetitions = repetitions;
+            r.buildMs = r.topologyMs + r.tableMs;
+            r.tableBytes = isPerLevel ? perLevel.bytes() : factorized.bytes();
+            r.tableEntries = isPerLevel ? perLevel.indices.size() : factorized.indices.size();
+            r.bytesPerFrame = r.tableBytes + 12 * (isPerLevel ? levelVertices : controlCount + refinedCount);
+
+            progress.show(label + ": " + r.evaluator + " " + std::to_string(threads) + " thr");
+            CpuEvaluator<float> evaluator(perLevel, factorized, refinement.surface, form, 3, threads);
+            r.timing = timeFrames(
+                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+                [&] { evaluator.evaluate(control, out); });
+
+            animation.writeRest(control.data(), 3);
+            evaluator.evaluate(control, out);
+            if (reference.empty()) {
+                reference = out;
+                shape = measureShape(std::span<const std::uint32_t>(refinement.surface.faceOffsets),
+                                     std::span<const std::uint32_t>(refinement.surface.faceVerts),
+                                     reference.data(), refinedCount, 3);
+            }
+            r.maxDiff = maxDifference(out.data(), 3, reference.data(), 3, refinedCount) / shape.diagonal;
+            r.shape = shape;
+            if (!(r.maxDiff <= 1e-5))
+                warnings.push_back(model.name + " P-S " + std::to_string(levels) + " levels: " + r.evaluator + " (" +
+                                   std::to_string(threads) + " threads) differs from psub-cpu-perlevel by " +
+                                   std::to_string(r.maxDiff) + " of the bounding-box diagonal");
+            records.push_back(r);
+        }
+    return shape;
+}
+
+// P-S topological steps (preprocessing included) whose face count is nearest to `target`;
+// 2k on a closed mesh, where it is equal.
+int matchingSteps(const Counts& input, bool preprocessed, std::uint64_t target, int k) {
+    int best = 2 * k;
+    auto distance = [&](int steps) {
+        const double faces = double(countsAfterSteps(input, steps).faces);
+        return std::abs(faces - double(target));
+    };
+    for (int steps = preprocessed ? 1 : 0; steps <= 2 * k + 1; ++steps)
+        if (distance(steps) < distance(best)) best = steps;
+    return best;
+}
+
+}  // namespace
+}  // namespace detail
+
+int runBench(const BenchOptions& options) {
+    using namespace detail;
+    const auto start = Clock::now();
+    Report report;
+    report.machine = describeMachine();
+    report.command = options.command;
+    report.quick = options.quick;
+    report.maxFaces = options.maxFaces;
+    report.frames = {options.warmup, options.frames, options.frameBudgetSeconds};
+    if (options.quick) {
+        report.frames.warmup = std::min(options.warmup, 1);
+        report.frames.frames = std::min(options.frames, 5);
+    }
+    const int allThreads = report.machine.threads;
+    Progress progress;
+    double load[1] = {0};
+    if (::getloadavg(load, 1) == 1) report.loadStart = load[0];
+    const CpuTimes cpuStart = readCpuTimes();
+
+    // Models first, so that a bad path fails at once.
+    std::vector<std::string> paths = options.models;
+    if (paths.empty()) {
+        for (const char* name : {"cow.obj", "spot_control_mesh.obj", "cube.obj"})
+            paths.push_back(options.dataDir + "/" + name);
+        if (options.torus > 0) paths.push_back("torus:" + std::to_string(options.torus));
+    }
+    std::vector<Model> models;
+    for (const std::string& path : paths) {
+        progress.show("loading " + path);
+        models.push_back(path.rfind("torus:", 0) == 0 ? torusModel(torusSize(path)) : loadModel(path));
+    }
+    const std::size_t modelCount = models.size();
+
+    // Bandwidth, while little else is resident: 3 arrays of 64M doubles (1.5 GiB) are far
+    // above the caches of this machine (quick: 32M, 768 MiB).
+    report.triadElements = std::size_t(options.quick ? 32 : 64) << 20;
+    const int repetitions = options.quick ? 3 : 10;
+    progress.show("memory bandwidth: triad, 1 thread");
+    report.triad1 = measureTriad(1, report.triadElements, repetitions);
+    progress.show("memory bandwidth: triad, " + std::to_string(allThreads) + " threads");
+    report.triadAll = allThreads > 1 ? measureTriad(allThreads, report.triadElements, repetitions) : report.triad1;
+
+    for (std::size_t m = 0; m < modelCount; ++m) {
+        const Model& model = models[m];
+        const Faces& faces = model.mesh.faces;
+        ModelResult info;
+        info.name = model.name;
+        info.path = model.path;
+        info.vertices = faces.vertexCount;
+        info.faces = faces.faceCount();
+        info.corners = faces.verts.size();
+        info.preprocessed = needsPreprocessing(faces, model.connectivity, Preprocess::Auto);
+        {
+            std::vector<float> p(model.mesh.positions.begin(), model.mesh.positions.end());
+            info.input = measureShape(std::span<const Index>(faces.offsets), std::span<const Index>(faces.verts),
+                                      p.data(), faces.vertexCount, 3);
+        }
+        const Counts input = countMesh(faces, model.connectivity);
+        auto ccFaces = [&](int k) { return k == 0 ? info.faces : info.corners << (2 * (k - 1)); };
+
+        // Sizes: k = 1..levels, further while the mesh stays small, never above maxFaces.
+        for (int k = 1; k <= 12; ++k) {
+            const std::uint64_t cc = ccFaces(k);
+            const int steps = matchingSteps(input, info.preprocessed, cc, k);
+            const std::uint64_t ps = countsAfterSteps(input, steps).faces;
+            if (std::max(cc, ps) > options.maxFaces) break;
+            if (k > options.levels && cc > options.extendBelow) break;
+            info.sizes.push_back(k);
+            if (options.quick) break;
+        }
+        const int shownLevels = std::max(options.levels, info.sizes.empty() ? 0 : info.sizes.back());
+        for (int t = 0; t <= 2 * shownLevels + (info.preprocessed ? 1 : 0); ++t)
+            info.psFaces.push_back(countsAfterSteps(input, t).faces);
+        for (int k = 0; k <= shownLevels; ++k) info.ccFaces.push_back(ccFaces(k));
+        if (info.sizes.empty())
+            report.warnings.push_back(model.name + ": even Catmull-Clark level 1 (" + std::to_string(ccFaces(1)) +
+                                      " faces) is above --max-faces; skipped");
+
+        for (int k : info.sizes) {
+            const int steps = matchingSteps(input, info.preprocessed, ccFaces(k), k);
+            const int psLevels = steps - (info.preprocessed ? 1 : 0);
+            SizeResult size;
+            size.model = model.name;
+            size.k = k;
+            size.psLevels = psLevels;
+            size.psFaces = countsAfterSteps(input, steps).faces;
+            size.ccFaces = ccFaces(k);
+            const std::string label = "[" + std::to_string(m + 1) + "/" + std::to_string(modelCount) + "] " +
+                                      model.name + " CC " + std::to_string(k) + " / P-S " + std::to_string(psLevels) +
+                                      " (" + std::to_string(size.ccFaces) + " faces)";
+            const std::size_t firstRecord = report.records.size();
+            const bool withFactorized = size.psFaces <= options.maxFactorizedFaces;
+            if (!withFactorized)
+                report.notes.push_back(model.name + " P-S " + std::to_string(psLevels) + " levels (" +
+                                       std::to_string(size.psFaces) +
+                                       " faces): psub-cpu-factorized skipped, above --max-factorized-faces " +
+                                       std::to_string(options.maxFactorizedFaces) + " (its table grows with the "
+                                       "levels; see README)");
+            size.ps = runPSub(model, psLevels, k, withFactorized, report.frames, allThreads, progress, label, report.records,
+                              report.warnings);
+            OsdContext context{report.frames, allThreads, &progress, label, &report.warnings};
+            size.cc = runOpenSubdiv(model.mesh, model.name, k, context, report.records);
+
+            // Ratios against OpenSubdiv's fastest configuration of this size.
+            double osdFrame = 1e300, osdBuild = 1e300;
+            for (std::size_t i = firstRecord; i < report.records.size(); ++i)
+                if (report.records[i].scheme == "cc") {
+                    osdFrame = std::min(osdFrame, report.records[i].timing.median);
+                    osdBuild = std::min(osdBuild, report.records[i].buildMs);
+                    if (report.records[i].refinedFaces != size.ccFaces)
+                        report.warnings.push_back(model.name + " CC level " + std::to_string(k) + ": OpenSubdiv made " +
+                                                  std::to_string(report.records[i].refinedFaces) +
+                                                  " faces, the closed form says " + std::to_string(size.ccFaces));
+                } else if (report.records[i].refinedFaces != size.psFaces) {
+                    report.warnings.push_back(model.name + " P-S: refined " +
+                                              std::to_string(report.records[i].refinedFaces) +
+                                              " faces, the closed form says " + std::to_string(size.psFaces));
+                }
+            size.osdBestFrameMs = osdFrame;
+            size.osdBestBuildMs = osdBuild;
+            for (std::size_t i = firstRecord; i < report.records.size(); ++i) {
+                Record& r = report.records[i];
+                r.ratioVsOsdBest = r.timing.median > 0 ? osdFrame / r.timing.median : 0;
+                r.buildRatioVsOsdBest = r.buildMs > 0 ? osdBuild / r.buildMs : 0;
+            }
+            for (const Shape& s : {size.ps, size.cc})
+                if (!std::isfinite(s.volume) || !std::isfinite(s.diagonal) || s.diagonal <= 0 ||
+                    s.diagonal > 1.5 * info.input.diagonal)
+                    report.warnings.push_back(model.name + " CC level " + std::to_string(k) +
+                                              ": implausible refined shape (volume " + std::to_string(s.volume) +
+                                              ", diagonal " + std::to_string(s.diagonal) + ")");
+            report.sizes.push_back(size);
+        }
+        report.models.push_back(std::move(info));
+    }
+    progress.done();
+    if (::getloadavg(load, 1) == 1) report.loadEnd = load[0];
+    const CpuTimes cpuEnd = readCpuTimes();
+    report.seconds = msSince(start) * 1e-3;
+    report.otherCpuSeconds = std::max(0.0, (cpuEnd.busy - cpuStart.busy) - (cpuEnd.self - cpuStart.self));
+    report.stealSeconds = cpuEnd.steal - cpuStart.steal;
+    if (report.otherCpuSeconds > 0.05 * report.seconds || report.stealSeconds > 0.05 * report.seconds)
+        report.warnings.push_back(format("other processes used %.1f CPU-seconds and the hypervisor stole %.1f "
+                                         "during this %.0f s run: timings may be noisy",
+                                         report.otherCpuSeconds, report.stealSeconds, report.seconds));
+
+    for (Record& r : report.records) {
+        const double seconds = r.timing.median * 1e-3;
+        r.gbs = seconds > 0 ? double(r.bytesPerFrame) / seconds / 1e9 : 0;
+        const double triad = r.threads > 1 ? report.triadAll : report.triad1;
+        r.bandwidthFraction = triad > 0 ? r.gbs / triad : 0;
+    }
+
+    printMarkdown(report, stdout);
+    std::fflush(stdout);
+    if (!options.jsonPath.empty()) writeJson(report, options.jsonPath);
+    if (!options.plotPath.empty()) writeSvg(report, options.plotPath);
+    for (const std::string& warning : report.warnings) std::fprintf(stderr, "psub bench: warning: %s\n", warning.c_str());
+    return 0;
+}
+
+}  // namespace psub::bench

@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Smoke test of `psub bench --quick`: exit 0, a markdown table on stdout, JSON that parses
+with the stable field names, an SVG that parses. Never judges speed.
+
+usage: check_json.py PSUB WORKDIR
+"""
+import json
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+STABLE = {
+    "model": str, "scheme": str, "levels": int, "refined_faces": int, "evaluator": str,
+    "threads": int, "build_ms": (int, float), "frame_ms_median": (int, float),
+    "frame_ms_min": (int, float), "bytes_per_frame": int, "bandwidth_fraction": (int, float),
+}
+EVALUATORS = {"psub-cpu-perlevel", "psub-cpu-factorized", "osd-cpu", "osd-omp"}
+
+
+def fail(message):
+    print("FAIL:", message)
+    sys.exit(1)
+
+
+def main():
+    psub, workdir = sys.argv[1], sys.argv[2]
+    os.makedirs(workdir, exist_ok=True)
+    json_path = os.path.join(workdir, "bench.json")
+    svg_path = os.path.join(workdir, "bench.svg")
+    for path in (json_path, svg_path):
+        if os.path.exists(path):
+            os.remove(path)
+
+    help_text = subprocess.run([psub, "bench", "--help"], capture_output=True, text=True)
+    if help_text.returncode != 0 or "Example" not in help_text.stdout:
+        fail("psub bench --help does not show an example")
+
+    run = subprocess.run([psub, "bench", "--quick", "--torus", "16", "--json", json_path, "--plot", svg_path],
+                         capture_output=True, text=True)
+    if run.returncode != 0:
+        fail(f"psub bench exited {run.returncode}: {run.stderr[-2000:]}")
+    if "| model |" not in run.stdout:
+        fail("no markdown table on stdout")
+
+    with open(json_path) as f:
+        data = json.load(f)
+    for key in ("machine", "triad_gbs", "triad_gbs_1thread", "command", "results"):
+        if key not in data:
+            fail(f"top-level field {key!r} missing")
+    for key in ("cpu", "cores", "date", "compiler", "opensubdiv"):
+        if key not in data["machine"]:
+            fail(f"machine.{key} missing")
+    results = data["results"]
+    if not results:
+        fail("no results")
+    for record in results:
+        for key, kind in STABLE.items():
+            if key not in record:
+                fail(f"record lacks {key!r}: {record}")
+            if not isinstance(record[key], kind) or isinstance(record[key], bool):
+                fail(f"record field {key!r} has type {type(record[key]).__name__}: {record}")
+        if record["scheme"] not in ("ps", "cc"):
+            fail(f"scheme {record['scheme']!r}")
+        if record["refined_faces"] <= 0 or record["frame_ms_median"] < record["frame_ms_min"]:
+            fail(f"implausible record: {record}")
+        if record["max_diff_rel"] is None or record["max_diff_rel"] > 1e-5:
+            fail(f"evaluators disagree: {record}")
+    seen = {r["evaluator"] for r in results}
+    if not EVALUATORS <= seen:
+        fail(f"evaluators missing: {sorted(EVALUATORS - seen)}")
+    models = {r["model"] for r in results}
+    for model in ("cow", "spot_control_mesh", "cube", "torus16"):
+        if model not in models:
+            fail(f"model {model} missing from the results")
+    ET.parse(svg_path)
+    print(f"ok: {len(results)} records, {len(models)} models")
+
+
+if __name__ == "__main__":
+    main()

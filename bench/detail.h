@@ -1,0 +1,270 @@
+// Internals of psub bench shared by its files: records, timing, shape, machine, report.
+#pragma once
+
+#include "bench.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace psub::bench::detail {
+
+using Clock = std::chrono::steady_clock;
+
+// printf into a std::string (up to 511 characters).
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+
+inline double msSince(Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// ---------------------------------------------------------------------------------------
+// Machine and bandwidth (machine.cpp)
+
+struct Machine {
+    std::string cpu, compiler, osdVersion, date, kernel;
+    int cores = 0;          // logical processors online
+    int threads = 0;        // "all threads": OpenMP's default team size at start-up
+    double memoryGiB = 0;
+};
+
+Machine describeMachine();
+
+// CPU time of the whole machine (busy, and stolen by the hypervisor) and of this process, in
+// seconds: the difference over a run tells how much else ran beside the benchmark.
+struct CpuTimes {
+    double busy = 0, steal = 0, self = 0;
+};
+CpuTimes readCpuTimes();
+
+// STREAM-style triad a[i] = b[i] + s * c[i] over `elements` doubles per array on `threads`
+// threads; best of `repetitions`, in GB/s (1e9 B/s) counting 3 arrays x 8 B per element.
+double measureTriad(int threads, std::size_t elements, int repetitions);
+
+// ---------------------------------------------------------------------------------------
+// Progress on stderr: one rewritten line on a terminal, one line per step otherwise.
+
+class Progress {
+public:
+    Progress();
+    void show(const std::string& line);
+    void done();
+
+private:
+    bool tty_;
+    std::size_t last_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------
+// Frames
+
+struct FrameSettings {
+    int warmup = 3, frames = 30;  // warm-up stops early once it has taken a second
+    double budgetSeconds = 6;     // fewer frames (at least minFrames) when `frames` would take longer
+    int minFrames = 10;
+};
+
+struct Timing {
+    double median = 0, min = 0;
+    int frames = 0;
+};
+
+// Untimed animate(frame) writes new control points; timed evaluate() refines them.
+template <class Animate, class Evaluate>
+Timing timeFrames(const FrameSettings& settings, Animate&& animate, Evaluate&& evaluate) {
+    double last = 0, warm = 0;
+    int frame = 0;
+    for (int i = 0; i < settings.warmup && warm < 1000; ++i, ++frame) {
+        animate(frame);
+        const auto start = Clock::now();
+        evaluate();
+        last = msSince(start);
+        warm += last;
+    }
+    int frames = settings.frames;
+    if (last > 0 && frames > settings.minFrames && last * 1e-3 * frames > settings.budgetSeconds)
+        frames = std::max(settings.minFrames, int(settings.budgetSeconds / (last * 1e-3)));
+    std::vector<double> ms;
+    ms.reserve(std::size_t(frames));
+    for (int i = 0; i < frames; ++i, ++frame) {
+        animate(frame);
+        const auto start = Clock::now();
+        evaluate();
+        ms.push_back(msSince(start));
+    }
+    std::sort(ms.begin(), ms.end());
+    Timing timing;
+    timing.frames = frames;
+    if (!ms.empty()) {
+        const std::size_t n = ms.size();
+        timing.median = n % 2 ? ms[n / 2] : (ms[n / 2 - 1] + ms[n / 2]) / 2;
+        timing.min = ms.front();
+    }
+    return timing;
+}
+
+// A small travelling wave over the rest pose: y += amplitude * sin(k x + 0.2 frame).
+// Builds are repeated (fastest kept) up to this many times while they take under this long.
+inline constexpr int kBuildRepetitions = 3;
+inline constexpr double kBuildSeconds = 1.0;
+
+// Runs build() up to kBuildRepetitions times while the total stays under kBuildSeconds;
+// returns the fastest time in ms and sets `repetitions`.
+template <class Build>
+double timeBuild(Build&& build, int& repetitions) {
+    double best = 1e300;
+    repetitions = 0;
+    const auto start = Clock::now();
+    do {
+        const auto one = Clock::now();
+        build();
+        best = std::min(best, msSince(one));
+        ++repetitions;
+    } while (repetitions < kBuildRepetitions && msSince(start) < kBuildSeconds * 1e3);
+    return best;
+}
+
+struct Animation {
+    std::vector<float> rest;  // xyz per control point
+    float amplitude = 0, wavenumber = 0;
+
+    Animation(std::span<const double> positions, double diagonal);
+    std::size_t count() const { return rest.size() / 3; }
+    // Writes every control point at `stride` floats (xyz, then 1 for a fourth float).
+    void write(int frame, float* destination, unsigned stride) const;
+    void writeRest(float* destination, unsigned stride) const;
+};
+
+// ---------------------------------------------------------------------------------------
+// Shape
+
+struct Shape {
+    double volume = 0, diagonal = 0;
+};
+
+// Signed volume (fan-triangulated faces, divergence theorem) and bounding-box diagonal of
+// the first three floats of each `stride`-float vertex. Offsets and vertices as CSR rows.
+template <class Offset, class VertexIndex>
+Shape measureShape(std::span<const Offset> offsets, std::span<const VertexIndex> verts,
+                   const float* p, std::size_t vertexCount, unsigned stride) {
+    Shape shape;
+    for (std::size_t f = 0; f + 1 < offsets.size(); ++f) {
+        const std::size_t begin = std::size_t(offsets[f]), end = std::size_t(offsets[f + 1]);
+        const float* a = p + std::size_t(verts[begin]) * stride;
+        for (std::size_t i = begin + 1; i + 1 < end; ++i) {
+            const float* b = p + std::size_t(verts[i]) * stride;
+            const float* d = p + std::size_t(verts[i + 1]) * stride;
+            const double ax = a[0], ay = a[1], az = a[2], bx = b[0], by = b[1], bz = b[2];
+            const double dx = d[0], dy = d[1], dz = d[2];
+            shape.volume += (ax * (by * dz - bz * dy) - ay * (bx * dz - bz * dx) +
+                             az * (bx * dy - by * dx)) / 6;
+        }
+    }
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t v = 0; v < vertexCount; ++v)
+        for (std::size_t axis = 0; axis < 3; ++axis) {
+            lo[axis] = std::min(lo[axis], double(p[v * stride + axis]));
+            hi[axis] = std::max(hi[axis], double(p[v * stride + axis]));
+        }
+    for (int axis = 0; axis < 3; ++axis) shape.diagonal += (hi[axis] - lo[axis]) * (hi[axis] - lo[axis]);
+    shape.diagonal = std::sqrt(shape.diagonal);
+    return shape;
+}
+
+// Bounding-box diagonal of xyz triples.
+double boxDiagonal(std::span<const double> positions);
+
+// Largest |a - b| over the first three floats of each vertex.
+double maxDifference(const float* a, unsigned strideA, const float* b, unsigned strideB,
+                     std::size_t vertexCount);
+
+// ---------------------------------------------------------------------------------------
+// Results
+
+// One (model, evaluator, size): the JSON record. Field names in comments are the JSON ones.
+struct Record {
+    std::string model;           // model
+    std::string scheme;          // scheme: "ps" or "cc"
+    int levels = 0;              // levels: P-S steps after preprocessing / CC levels
+    int ccLevel = 0;             // cc_level: the matched size k
+    std::uint64_t refinedFaces = 0, refinedVertices = 0, controlVertices = 0;
+    std::string evaluator;       // evaluator
+    std::string table;           // table: "per-level", "factorized", "cascading"
+    int threads = 1;             // threads
+    int layoutFloats = 3;        // layout_floats
+    double probe3 = -1, probe4 = -1;  // probe_ms_3f / probe_ms_4f (OpenSubdiv layout choice)
+    double buildMs = 0, topologyMs = 0, tableMs = 0;  // build_ms = topology_ms + table_ms
+    int buildRepetitions = 1;    // build_repetitions: fastest of these many builds
+    std::uint64_t tableBytes = 0;
+    std::uint64_t tableEntries = 0;
+    Timing timing;               // frame_ms_median, frame_ms_min, frames
+    std::uint64_t bytesPerFrame = 0;
+    double gbs = 0, bandwidthFraction = 0;
+    double ratioVsOsdBest = 0, buildRatioVsOsdBest = 0;
+    double maxDiff = 0;          // max_diff_rel: vs the scheme's reference, / bbox diagonal
+    Shape shape;
+};
+
+struct SizeResult {
+    std::string model;
+    int k = 0, psLevels = 0;
+    std::uint64_t psFaces = 0, ccFaces = 0;
+    Shape ps, cc;
+    double osdBestFrameMs = 0, osdBestBuildMs = 0;
+};
+
+struct ModelResult {
+    std::string name, path;
+    std::uint64_t vertices = 0, faces = 0, corners = 0;
+    bool preprocessed = false;
+    std::vector<std::uint64_t> psFaces;  // per topological step (0: input; 1: the paired
+                                         // method when preprocessed)
+    std::vector<std::uint64_t> ccFaces;  // per Catmull-Clark level
+    Shape input;
+    std::vector<int> sizes;              // the k measured
+};
+
+struct Report {
+    Machine machine;
+    double triadAll = 0, triad1 = 0;
+    std::size_t triadElements = 0;
+    std::string command;
+    FrameSettings frames;
+    bool quick = false;
+    std::uint64_t maxFaces = 0;
+    std::vector<ModelResult> models;
+    std::vector<SizeResult> sizes;
+    std::vector<Record> records;
+    std::vector<std::string> warnings;
+    std::vector<std::string> notes;  // what was skipped and why
+    double loadStart = 0, loadEnd = 0;  // 1-minute load average before and after
+    double otherCpuSeconds = 0;         // CPU time used by other processes during the run
+    double stealSeconds = 0;            // CPU time the hypervisor took during the run
+    double seconds = 0;
+};
+
+void printMarkdown(const Report& report, std::FILE* out);
+void writeJson(const Report& report, const std::string& path);
+void writeSvg(const Report& report, const std::string& path);
+
+// ---------------------------------------------------------------------------------------
+// OpenSubdiv (osd.cpp): Catmull-Clark `level` levels of `mesh`, its refiner + stencil
+// builds and its evaluators. Appends records; returns the finest mesh's shape.
+
+struct OsdContext {
+    FrameSettings frames;
+    int allThreads = 1;
+    Progress* progress = nullptr;
+    std::string label;  // progress prefix
+    std::vector<std::string>* warnings = nullptr;
+};
+
+Shape runOpenSubdiv(const Mesh& mesh, const std::string& model, int level, const OsdContext& context,
+                    std::vector<Record>& records);
+
+}  // namespace psub::bench::detail

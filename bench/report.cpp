@@ -1,0 +1,443 @@
+// The benchmark's output: markdown tables (stdout), JSON and an SVG plot written by hand.
+#include "detail.h"
+
+#include <cmath>
+#include <cstdarg>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace psub::bench::detail {
+
+std::string format(const char* fmt, ...) {
+    char buffer[512];
+    va_list args;
+    va_start(args, fmt);
+    std::vsnprintf(buffer, sizeof buffer, fmt, args);
+    va_end(args);
+    return buffer;
+}
+
+namespace {
+
+// Milliseconds with about three significant digits.
+std::string ms(double value) {
+    if (value >= 100) return format("%.0f", value);
+    if (value >= 10) return format("%.1f", value);
+    if (value >= 1) return format("%.2f", value);
+    return format("%.3g", value);
+}
+
+std::string ratio(double value) { return value >= 10 ? format("%.1fx", value) : format("%.2fx", value); }
+
+std::string configName(const Record& r) {
+    std::string name = r.evaluator + " " + std::to_string(r.threads) + "t";
+    if (r.scheme == "cc") name += format(" %df", r.layoutFloats);
+    return name;
+}
+
+const Record* fastest(const Report& report, const SizeResult& size, const std::string& scheme) {
+    const Record* best = nullptr;
+    for (const Record& r : report.records)
+        if (r.model == size.model && r.ccLevel == size.k && r.scheme == scheme &&
+            (!best || r.timing.median < best->timing.median))
+            best = &r;
+    return best;
+}
+
+const Record* find(const Report& report, const SizeResult& size, const std::string& evaluator, int threads) {
+    for (const Record& r : report.records)
+        if (r.model == size.model && r.ccLevel == size.k && r.evaluator == evaluator && r.threads == threads) return &r;
+    return nullptr;
+}
+
+const Record* fastestBuild(const Report& report, const SizeResult& size, const std::string& scheme) {
+    const Record* best = nullptr;
+    for (const Record& r : report.records)
+        if (r.model == size.model && r.ccLevel == size.k && r.scheme == scheme && (!best || r.buildMs < best->buildMs))
+            best = &r;
+    return best;
+}
+
+}  // namespace
+
+void printMarkdown(const Report& report, std::FILE* out) {
+    const Machine& m = report.machine;
+    std::fprintf(out, "# psub bench: PSub (P-S) against OpenSubdiv (Catmull-Clark), same run\n\n");
+    std::fprintf(out, "- Machine: %s, %d logical cores (%d threads used for \"all\"), %.1f GiB, %s\n", m.cpu.c_str(),
+                 m.cores, m.threads, m.memoryGiB, m.kernel.c_str());
+    std::fprintf(out, "- Compiler: %s; OpenSubdiv %s (Debian libosdCPU)\n", m.compiler.c_str(), m.osdVersion.c_str());
+    std::fprintf(out, "- Date: %s; whole run %.0f s; meanwhile other processes used %.1f CPU-seconds and the "
+                      "hypervisor stole %.1f (1-minute load average %.2f before, %.2f after)\n",
+                 m.date.c_str(), report.seconds, report.otherCpuSeconds, report.stealSeconds, report.loadStart,
+                 report.loadEnd);
+    std::fprintf(out, "- Command: `%s`\n", report.command.c_str());
+    std::fprintf(out,
+                 "- Memory bandwidth, STREAM-style triad a[i] = b[i] + s*c[i] over 3 arrays of %zu doubles "
+                 "(counting 3 x 8 B per element, the STREAM convention), best of several: "
+                 "**%.1f GB/s on 1 thread, %.1f GB/s on %d threads**\n",
+                 report.triadElements, report.triad1, report.triadAll, m.threads);
+    std::fprintf(out,
+                 "- Frames: control points move every frame (a small wave); per-frame time is the median (and "
+                 "min) of %d timed frames after %d warm-up frames (fewer, at least 10, where %d frames would "
+                 "take over %.0f s)\n",
+                 report.frames.frames, report.frames.warmup, report.frames.frames, report.frames.budgetSeconds);
+    std::fprintf(out,
+                 "- Sizes: P-S levels with the face count of Catmull-Clark level k (2k topological steps, the "
+                 "paired method being the first when a face is not a quad)\n\n");
+
+    std::fprintf(out, "## Face counts per step (the paper's Table I)\n\n");
+    std::fprintf(out, "Column t = topological steps; Catmull-Clark level k sits under t = 2k. For a model that "
+                      "needs preprocessing, t = 1 is the paired method and P-S level L is t = L + 1.\n\n");
+    for (const ModelResult& model : report.models) {
+        std::fprintf(out, "| %s | ", model.name.c_str());
+        for (std::size_t t = 0; t < model.psFaces.size(); ++t) std::fprintf(out, "t=%zu | ", t);
+        std::fprintf(out, "\n|---|");
+        for (std::size_t t = 0; t < model.psFaces.size(); ++t) std::fprintf(out, "---:|");
+        std::fprintf(out, "\n| P-S%s | ", model.preprocessed ? " (t=1: paired method)" : "");
+        for (std::uint64_t f : model.psFaces) std::fprintf(out, "%llu | ", (unsigned long long)f);
+        std::fprintf(out, "\n| Catmull-Clark | ");
+        for (std::size_t t = 0; t < model.psFaces.size(); ++t) {
+            if (t % 2 == 0 && t / 2 < model.ccFaces.size())
+                std::fprintf(out, "%llu | ", (unsigned long long)model.ccFaces[t / 2]);
+            else
+                std::fprintf(out, " | ");
+        }
+        std::fprintf(out, "\n\n");
+    }
+
+    std::fprintf(out, "## PSub against OpenSubdiv's fastest configuration, per size\n\n");
+    std::fprintf(out,
+                 "Speed-up = OpenSubdiv's time / PSub's time (above 1: PSub is faster). OpenSubdiv's fastest = "
+                 "the best of osd-cpu, osd-omp (1 and all threads), factorized and cascading tables, 3- and "
+                 "4-float layouts; its build = refiner + the table of that configuration. Bandwidth fraction = "
+                 "bytes per frame / median frame time / triad of the same thread count.\n\n");
+    std::fprintf(out, "| model | k | faces CC / P-S | OSD fastest | OSD ms | PSub fastest | PSub ms | frame "
+                      "speed-up | PSub per-level %dt | OSD build ms | PSub build ms (per-level) | build "
+                      "speed-up | bw fraction PSub / OSD |\n",
+                 report.machine.threads);
+    std::fprintf(out, "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (const SizeResult& size : report.sizes) {
+        const Record* osd = fastest(report, size, "cc");
+        const Record* ps = fastest(report, size, "ps");
+        const Record* perLevel = find(report, size, "psub-cpu-perlevel", report.machine.threads);
+        const Record* osdBuild = fastestBuild(report, size, "cc");
+        const Record* psBuild = find(report, size, "psub-cpu-perlevel", 1);
+        if (!osd || !ps || !perLevel || !osdBuild || !psBuild) continue;
+        std::fprintf(out, "| %s | %d | %llu / %llu | %s | %s | %s | %s | **%s** | %s | %s | %s | **%s** | %.2f / %.2f |\n",
+                     size.model.c_str(), size.k, (unsigned long long)size.ccFaces, (unsigned long long)size.psFaces,
+                     configName(*osd).c_str(), ms(osd->timing.median).c_str(), configName(*ps).c_str(),
+                     ms(ps->timing.median).c_str(), ratio(osd->timing.median / ps->timing.median).c_str(),
+                     ratio(perLevel->ratioVsOsdBest).c_str(), ms(osdBuild->buildMs).c_str(),
+                     ms(psBuild->buildMs).c_str(), ratio(osdBuild->buildMs / psBuild->buildMs).c_str(),
+                     ps->bandwidthFraction, osd->bandwidthFraction);
+    }
+
+    std::fprintf(out, "\n## Every configuration\n\n");
+    std::fprintf(out, "| model | k | scheme | levels | faces | evaluator | thr | layout | build ms (topology + "
+                      "table) | frame ms median | min | frames | MB/frame | GB/s | bw fraction | speed-up vs OSD "
+                      "fastest | build speed-up | max diff |\n");
+    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (const Record& r : report.records)
+        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e |\n",
+                     r.model.c_str(), r.ccLevel, r.scheme == "ps" ? "P-S" : "CC", r.levels,
+                     (unsigned long long)r.refinedFaces, r.evaluator.c_str(), r.threads, r.layoutFloats,
+                     ms(r.buildMs).c_str(), ms(r.topologyMs).c_str(), ms(r.tableMs).c_str(),
+                     ms(r.timing.median).c_str(), ms(r.timing.min).c_str(), r.timing.frames,
+                     double(r.bytesPerFrame) / 1e6, r.gbs, r.bandwidthFraction, ratio(r.ratioVsOsdBest).c_str(),
+                     ratio(r.buildRatioVsOsdBest).c_str(), r.maxDiff);
+
+    std::fprintf(out, "\n## Shape at matched sizes (refined positions from the evaluators, rest pose)\n\n");
+    std::fprintf(out, "| model | input volume | input box diagonal | k | P-S levels | P-S faces | P-S volume | P-S "
+                      "diagonal | CC faces | CC volume | CC diagonal | P-S / CC volume |\n");
+    std::fprintf(out, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (const SizeResult& size : report.sizes) {
+        const ModelResult* model = nullptr;
+        for (const ModelResult& candidate : report.models)
+            if (candidate.name == size.model) model = &candidate;
+        std::fprintf(out, "| %s | %.5g | %.5g | %d | %d | %llu | %.5g | %.5g | %llu | %.5g | %.5g | %.3f |\n",
+                     size.model.c_str(), model ? model->input.volume : 0.0, model ? model->input.diagonal : 0.0,
+                     size.k, size.psLevels, (unsigned long long)size.psFaces, size.ps.volume, size.ps.diagonal,
+                     (unsigned long long)size.ccFaces, size.cc.volume, size.cc.diagonal,
+                     size.cc.volume != 0 ? size.ps.volume / size.cc.volume : 0.0);
+    }
+    if (!report.notes.empty()) {
+        std::fprintf(out, "\n## Notes\n\n");
+        for (const std::string& note : report.notes) std::fprintf(out, "- %s\n", note.c_str());
+    }
+    if (!report.warnings.empty()) {
+        std::fprintf(out, "\n## Warnings\n\n");
+        for (const std::string& warning : report.warnings) std::fprintf(out, "- %s\n", warning.c_str());
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// JSON
+
+namespace {
+
+std::string quote(const std::string& text) {
+    std::string out = "\"";
+    for (const char c : text) {
+        switch (c) {
+            case '"': out += "\\\""; break;
+            case '\\': out += "\\\\"; break;
+            case '\n': out += "\\n"; break;
+            case '\t': out += "\\t"; break;
+            case '\r': out += "\\r"; break;
+            default:
+                if (static_cast<unsigned char>(c) < 0x20)
+                    out += format("\\u%04x", unsigned(static_cast<unsigned char>(c)));
+                else
+                    out += c;
+        }
+    }
+    return out + "\"";
+}
+
+std::string number(double value) { return std::isfinite(value) ? format("%.9g", value) : "null"; }
+std::string number(std::uint64_t value) { return std::to_string(value); }
+std::string number(int value) { return std::to_string(value); }
+
+// "key": value pairs, comma-separated, in an object.
+class Object {
+public:
+    Object& add(const std::string& key, const std::string& rawValue) {
+        text_ += (text_.empty() ? "" : ", ") + quote(key) + ": " + rawValue;
+        return *this;
+    }
+    Object& str(const std::string& key, const std::string& value) { return add(key, quote(value)); }
+    template <class T>
+    Object& num(const std::string& key, T value) { return add(key, number(value)); }
+    std::string text() const { return "{" + text_ + "}"; }
+
+private:
+    std::string text_;
+};
+
+template <class T>
+std::string array(const std::vector<T>& values) {
+    std::string out = "[";
+    for (std::size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + number(values[i]);
+    return out + "]";
+}
+
+std::string lines(const std::vector<std::string>& items, const char* indent) {
+    std::string out = "[";
+    for (std::size_t i = 0; i < items.size(); ++i) out += std::string(i ? "," : "") + "\n" + indent + items[i];
+    return out + (items.empty() ? "]" : std::string("\n") + std::string(indent).substr(2) + "]");
+}
+
+}  // namespace
+
+void writeJson(const Report& report, const std::string& path) {
+    const Machine& m = report.machine;
+    Object machine;
+    machine.str("cpu", m.cpu).num("cores", m.cores).num("threads", m.threads).num("memory_gib", m.memoryGiB)
+        .str("compiler", m.compiler).str("opensubdiv", m.osdVersion).str("kernel", m.kernel).str("date", m.date)
+        .num("load_average_start", report.loadStart).num("load_average_end", report.loadEnd)
+        .num("other_cpu_seconds", report.otherCpuSeconds).num("steal_seconds", report.stealSeconds);
+
+    std::vector<std::string> models, sizes, results, warnings;
+    for (const ModelResult& model : report.models) {
+        std::vector<std::uint64_t> sizeList(model.sizes.begin(), model.sizes.end());
+        models.push_back(Object()
+                             .str("model", model.name).str("path", model.path)
+                             .num("vertices", model.vertices).num("faces", model.faces)
+                             .add("preprocessed", model.preprocessed ? "true" : "false")
+                             .add("ps_faces_per_step", array(model.psFaces))
+                             .add("cc_faces_per_level", array(model.ccFaces))
+                             .add("cc_levels_measured", array(sizeList))
+                             .num("input_volume", model.input.volume)
+                             .num("input_bbox_diagonal", model.input.diagonal)
+                             .text());
+    }
+    for (const SizeResult& size : report.sizes)
+        sizes.push_back(Object()
+                            .str("model", size.model).num("cc_levels", size.k).num("ps_levels", size.psLevels)
+                            .num("cc_faces", size.ccFaces).num("ps_faces", size.psFaces)
+                            .num("cc_volume", size.cc.volume).num("cc_bbox_diagonal", size.cc.diagonal)
+                            .num("ps_volume", size.ps.volume).num("ps_bbox_diagonal", size.ps.diagonal)
+                            .num("osd_best_frame_ms", size.osdBestFrameMs)
+                            .num("osd_best_build_ms", size.osdBestBuildMs)
+                            .text());
+    for (const Record& r : report.records) {
+        Object o;
+        o.str("model", r.model).str("scheme", r.scheme).num("levels", r.levels).num("cc_level", r.ccLevel)
+            .num("refined_faces", r.refinedFaces).num("refined_vertices", r.refinedVertices)
+            .num("control_vertices", r.controlVertices).str("evaluator", r.evaluator).str("table", r.table)
+            .num("threads", r.threads).num("layout_floats", r.layoutFloats);
+        if (r.probe3 >= 0) o.num("probe_ms_3f", r.probe3).num("probe_ms_4f", r.probe4);
+        o.num("build_ms", r.buildMs).num("topology_ms", r.topologyMs).num("table_ms", r.tableMs)
+            .num("build_repetitions", r.buildRepetitions)
+            .num("table_bytes", r.tableBytes).num("table_entries", r.tableEntries)
+            .num("frame_ms_median", r.timing.median).num("frame_ms_min", r.timing.min).num("frames", r.timing.frames)
+            .num("bytes_per_frame", r.bytesPerFrame).num("gbs", r.gbs).num("bandwidth_fraction", r.bandwidthFraction)
+            .num("ratio_vs_osd_best", r.ratioVsOsdBest).num("build_ratio_vs_osd_best", r.buildRatioVsOsdBest)
+            .num("max_diff_rel", r.maxDiff).num("volume", r.shape.volume).num("bbox_diagonal", r.shape.diagonal);
+        results.push_back(o.text());
+    }
+    std::vector<std::string> notes;
+    for (const std::string& warning : report.warnings) warnings.push_back(quote(warning));
+    for (const std::string& note : report.notes) notes.push_back(quote(note));
+
+    std::ostringstream json;
+    json << "{\n";
+    json << "  \"machine\": " << machine.text() << ",\n";
+    json << "  \"date\": " << quote(m.date) << ",\n";
+    json << "  \"command\": " << quote(report.command) << ",\n";
+    json << "  \"triad_gbs\": " << number(report.triadAll) << ",\n";
+    json << "  \"triad_gbs_1thread\": " << number(report.triad1) << ",\n";
+    json << "  \"triad\": "
+         << Object()
+                .num("elements_per_array", std::uint64_t(report.triadElements))
+                .num("bytes_per_element", 24)
+                .str("convention", "STREAM: a[i] = b[i] + s*c[i], 3 arrays x 8 bytes per element, best of several runs")
+                .text()
+         << ",\n";
+    json << "  \"frames\": "
+         << Object().num("warmup", report.frames.warmup).num("frames", report.frames.frames)
+                .num("budget_seconds", report.frames.budgetSeconds).add("quick", report.quick ? "true" : "false")
+                .text()
+         << ",\n";
+    json << "  \"max_faces\": " << report.maxFaces << ",\n";
+    json << "  \"bytes_per_frame_model\": "
+         << quote("table bytes + for each pass: source vertices read once + destination vertices written once, "
+                  "at layout_floats x 4 bytes per vertex (per-level/cascading: one pass per level; factorized: "
+                  "control points -> finest level)")
+         << ",\n";
+    json << "  \"seconds\": " << number(report.seconds) << ",\n";
+    json << "  \"models\": " << lines(models, "    ") << ",\n";
+    json << "  \"sizes\": " << lines(sizes, "    ") << ",\n";
+    json << "  \"results\": " << lines(results, "    ") << ",\n";
+    json << "  \"notes\": " << lines(notes, "    ") << ",\n";
+    json << "  \"warnings\": " << lines(warnings, "    ") << "\n";
+    json << "}\n";
+    writeFileAtomic(path, json.str());
+}
+
+// ---------------------------------------------------------------------------------------
+// SVG
+
+namespace {
+
+std::string escape(const std::string& text) {
+    std::string out;
+    for (const char c : text) {
+        if (c == '&') out += "&amp;";
+        else if (c == '<') out += "&lt;";
+        else if (c == '>') out += "&gt;";
+        else if (c == '"') out += "&quot;";
+        else out += c;
+    }
+    return out;
+}
+
+std::string facesLabel(double value) {
+    if (value >= 1e6) return format("%gM", value / 1e6);
+    if (value >= 1e3) return format("%gk", value / 1e3);
+    return format("%g", value);
+}
+
+}  // namespace
+
+void writeSvg(const Report& report, const std::string& path) {
+    // Series: one per evaluator and thread count, points sorted by refined faces.
+    std::map<std::string, std::vector<std::pair<double, double>>> series;
+    std::vector<std::string> order;
+    for (const Record& r : report.records) {
+        if (r.timing.median <= 0) continue;
+        const std::string key = r.evaluator + " (" + std::to_string(r.threads) + (r.threads == 1 ? " thread)" : " threads)");
+        if (!series.count(key)) order.push_back(key);
+        series[key].push_back({double(r.refinedFaces), r.timing.median});
+    }
+    double xMin = 1e300, xMax = 0, yMin = 1e300, yMax = 0;
+    for (auto& [key, points] : series) {
+        std::sort(points.begin(), points.end());
+        for (const auto& [x, y] : points) {
+            xMin = std::min(xMin, x), xMax = std::max(xMax, x);
+            yMin = std::min(yMin, y), yMax = std::max(yMax, y);
+        }
+    }
+    if (series.empty()) xMin = 1, xMax = 10, yMin = 1, yMax = 10;
+    const double lx0 = std::floor(std::log10(xMin)), lx1 = std::max(lx0 + 1, std::ceil(std::log10(xMax)));
+    const double ly0 = std::floor(std::log10(yMin)), ly1 = std::max(ly0 + 1, std::ceil(std::log10(yMax)));
+    const double left = 90, right = 700, top = 80, bottom = 560, width = 1060, height = 630;
+    auto X = [&](double x) { return left + (std::log10(x) - lx0) / (lx1 - lx0) * (right - left); };
+    auto Y = [&](double y) { return bottom - (std::log10(y) - ly0) / (ly1 - ly0) * (bottom - top); };
+
+    std::ostringstream svg;
+    svg << format("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
+                  "font-family=\"sans-serif\" font-size=\"12\">\n",
+                  width, height, width, height);
+    svg << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+    svg << format("<text x=\"%.0f\" y=\"28\" font-size=\"17\" font-weight=\"bold\">psub bench: per-frame time "
+                  "against refined faces (PSub P-S vs OpenSubdiv Catmull-Clark, CPU)</text>\n",
+                  left);
+    svg << format("<text x=\"%.0f\" y=\"50\">%s</text>\n", left,
+                  escape(report.machine.cpu + ", " + std::to_string(report.machine.cores) + " cores, " +
+                         report.machine.compiler + ", OpenSubdiv " + report.machine.osdVersion + " - " +
+                         report.machine.date)
+                      .c_str());
+    svg << format("<text x=\"%.0f\" y=\"66\" fill=\"#555\">triad %.1f GB/s (1 thread), %.1f GB/s (%d threads); "
+                  "median of the timed frames; same run, same machine</text>\n",
+                  left, report.triad1, report.triadAll, report.machine.threads);
+    // Grid and ticks: decades, with 2 and 5 in between.
+    for (double e = lx0; e <= lx1; ++e)
+        for (double mantissa : {1.0, 2.0, 5.0}) {
+            const double value = mantissa * std::pow(10.0, e);
+            if (std::log10(value) > lx1 + 1e-9) continue;
+            const double x = X(value);
+            svg << format("<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"%s\"/>\n", x, top, x, bottom,
+                          mantissa == 1 ? "#bbb" : "#eee");
+            svg << format("<text x=\"%.1f\" y=\"%.0f\" text-anchor=\"middle\"%s>%s</text>\n", x, bottom + 18,
+                          mantissa == 1 ? "" : " fill=\"#888\" font-size=\"10\"", facesLabel(value).c_str());
+        }
+    for (double e = ly0; e <= ly1; ++e)
+        for (double mantissa : {1.0, 2.0, 5.0}) {
+            const double value = mantissa * std::pow(10.0, e);
+            if (std::log10(value) > ly1 + 1e-9) continue;
+            const double y = Y(value);
+            svg << format("<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"%s\"/>\n", left, y, right, y,
+                          mantissa == 1 ? "#bbb" : "#eee");
+            svg << format("<text x=\"%.0f\" y=\"%.1f\" text-anchor=\"end\"%s>%g</text>\n", left - 6, y + 4,
+                          mantissa == 1 ? "" : " fill=\"#888\" font-size=\"10\"", value);
+        }
+    svg << format("<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"none\" stroke=\"black\"/>\n", left,
+                  top, right - left, bottom - top);
+    svg << format("<text x=\"%.0f\" y=\"%.0f\" text-anchor=\"middle\" font-size=\"14\">refined faces (log scale; "
+                  "every model, sorted by face count)</text>\n",
+                  (left + right) / 2, bottom + 45);
+    svg << format("<text transform=\"translate(%.0f %.0f) rotate(-90)\" text-anchor=\"middle\" font-size=\"14\">"
+                  "per-frame time, median [ms] (log scale)</text>\n",
+                  left - 55, (top + bottom) / 2);
+
+    const char* colours[] = {"#1f77b4", "#2ca02c", "#17becf", "#9467bd", "#d62728", "#ff7f0e",
+                             "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#000000", "#aec7e8"};
+    double legendY = top + 10;
+    svg << format("<text x=\"%.0f\" y=\"%.0f\" font-weight=\"bold\">evaluator (threads)</text>\n", right + 20, legendY);
+    for (std::size_t i = 0; i < order.size(); ++i) {
+        const auto& points = series[order[i]];
+        const char* colour = colours[i % (sizeof colours / sizeof *colours)];
+        const bool osd = order[i].rfind("osd", 0) == 0;
+        std::string line;
+        for (const auto& [x, y] : points) line += format("%.1f,%.1f ", X(x), Y(y));
+        svg << format("<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"2\"%s points=\"%s\"/>\n", colour,
+                      osd ? " stroke-dasharray=\"6 3\"" : "", line.c_str());
+        for (const auto& [x, y] : points)
+            svg << format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"3\" fill=\"%s\"/>\n", X(x), Y(y), colour);
+        legendY += 20;
+        svg << format("<line x1=\"%.0f\" y1=\"%.0f\" x2=\"%.0f\" y2=\"%.0f\" stroke=\"%s\" stroke-width=\"2\"%s/>\n",
+                      right + 20, legendY - 4, right + 50, legendY - 4, colour, osd ? " stroke-dasharray=\"6 3\"" : "");
+        svg << format("<text x=\"%.0f\" y=\"%.0f\">%s</text>\n", right + 56, legendY, escape(order[i]).c_str());
+    }
+    legendY += 30;
+    svg << format("<text x=\"%.0f\" y=\"%.0f\" fill=\"#555\">solid: PSub; dashed: OpenSubdiv</text>\n", right + 20,
+                  legendY);
+    svg << format("<text x=\"%.0f\" y=\"%.0f\" fill=\"#555\">command: %s</text>\n", left, height - 12,
+                  escape(report.command).c_str());
+    svg << "</svg>\n";
+    writeFileAtomic(path, svg.str());
+}
+
+}  // namespace psub::bench::detail

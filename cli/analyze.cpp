@@ -1,0 +1,301 @@
+// psub analyze, psub compare and the demo's verdict table, over psub/analysis.h.
+#include "analyze.h"
+
+#include "psub/analysis.h"
+#include "psub/catmark.h"
+#include "psub/stencils.h"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace psub::cli {
+namespace {
+
+std::vector<Rules> rulesOf(const std::string& name) {
+    if (name == "paper") return {Rules::Paper};
+    if (name == "robust") return {Rules::Robust};
+    return {Rules::Paper, Rules::Robust};
+}
+
+// A double as JSON: shortest exact text; null for NaN and infinities.
+std::string jsonNumber(double value) {
+    if (!std::isfinite(value)) return "null";
+    char text[32];
+    std::snprintf(text, sizeof text, "%.17g", value);
+    return text;
+}
+
+std::string eigenvalueText(std::complex<double> value) {
+    char text[48];
+    if (value.imag() == 0)
+        std::snprintf(text, sizeof text, "%.6f", value.real());
+    else
+        std::snprintf(text, sizeof text, "%.4f%+.4fi", value.real(), value.imag());
+    return text;
+}
+
+std::string jsonRecord(const ValenceReport& r) {
+    std::string out = "{\"n\": " + std::to_string(r.valence) + ", \"rules\": \"" + rulesName(r.rules) +
+                      "\", \"eigenvalues\": [";
+    for (std::size_t k = 0; k < r.eigenvalues.size(); ++k) {
+        if (k) out += ", ";
+        out += '[';
+        out += jsonNumber(r.eigenvalues[k].real());
+        out += ", ";
+        out += jsonNumber(r.eigenvalues[k].imag());
+        out += ']';
+    }
+    out += std::string("], \"c1_necessary\": ") + (r.c1Necessary ? "true" : "false") +
+           ", \"characteristic_map_injective\": " + (r.characteristicMapInjective ? "true" : "false") +
+           ", \"cc_lambda1\": " + jsonNumber(r.ccLambda1) + ", \"cc_lambda1_closed_form\": " +
+           jsonNumber(r.ccLambda1ClosedForm) + ", \"lambda1\": " + jsonNumber(r.lambda1) +
+           ", \"lambda3_over_lambda1_squared\": " + jsonNumber(r.lambda3OverLambda1Squared) +
+           ", \"matrix_size\": " + std::to_string(r.matrixSize) + ", \"ring_windings\": [";
+    for (std::size_t k = 0; k < r.ringWindings.size(); ++k) {
+        if (k) out += ", ";
+        out += std::to_string(r.ringWindings[k]);
+    }
+    out += "], \"annulus_faces\": " + std::to_string(r.annulusFaces) +
+           ", \"folded_annulus_faces\": " + std::to_string(r.foldedAnnulusFaces) + ", \"normal_spread_degrees\": [";
+    for (std::size_t k = 0; k < r.normalSpreadDegrees.size(); ++k) {
+        if (k) out += ", ";
+        out += jsonNumber(r.normalSpreadDegrees[k]);
+    }
+    return out + "]}";
+}
+
+const char* yesNo(bool value) { return value ? "yes" : "no"; }
+
+Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules, int samples) {
+    // Refuse what would not fit comfortably: the refined P-S mesh's face count in closed form.
+    const bool preprocess = needsPreprocessing(mesh.faces, connectivity, Preprocess::Auto, mesh.source);
+    const Counts finest = countsAfterSteps(countMesh(mesh.faces, connectivity), levels + (preprocess ? 1 : 0));
+    if (finest.faces > 20'000'000)
+        throw InputError(mesh.source.path + ": " + std::to_string(levels) + " P-S steps would give " +
+                         std::to_string(finest.faces) + " faces; psub compare stops at 20 million (use fewer --levels)");
+    return compareWithCatmark(mesh, connectivity, levels, rules, samples);
+}
+
+}  // namespace
+
+std::vector<Index> parseValences(const std::string& text) {
+    std::vector<Index> out;
+    const auto bad = [&](const std::string& why) {
+        return InputError("--valence '" + text + "': " + why + " (examples: 2..16, 5, 2,3,8..10)");
+    };
+    const auto number = [&](const std::string& part) {
+        if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos)
+            throw bad("'" + part + "' is not a valence");
+        const int n = std::stoi(part);
+        if (n < 2 || n > 64) throw bad("valences run from 2 to 64");
+        return Index(n);
+    };
+    std::size_t begin = 0;
+    while (begin <= text.size()) {
+        const std::size_t comma = std::min(text.find(',', begin), text.size());
+        const std::string part = text.substr(begin, comma - begin);
+        const std::size_t dots = part.find("..");
+        if (dots == std::string::npos) {
+            out.push_back(number(part));
+        } else {
+            const Index lo = number(part.substr(0, dots)), hi = number(part.substr(dots + 2));
+            if (lo > hi) throw bad("a range must go up");
+            for (Index n = lo; n <= hi; ++n) out.push_back(n);
+        }
+        begin = comma + 1;
+    }
+    return out;
+}
+
+int runAnalyze(const AnalyzeOptions& options) {
+    const std::vector<Index> valences = parseValences(options.valences);
+    ValenceOptions valenceOptions;
+    valenceOptions.characteristicRings = options.rings;
+    valenceOptions.tangentLevels = options.levels;
+    if (options.json) std::printf("[\n");
+    else {
+        std::printf("Smoothness of P-S at an interior vertex of valence n surrounded by quads, from the engine's own\n"
+                    "stencil tables: the two-step subdivision matrix on 3 rings (1 + 12n vertices; one P-S step turns\n"
+                    "the grid by 45 degrees, two are self-similar). C1 needs lambda0 = 1 > lambda1 = lambda2 (real)\n"
+                    "> |lambda3| and an injective characteristic map (%d control rings each wind once; no face of the\n"
+                    "outer annulus folds). Normal spread: largest angle between two face normals within 2 rings of\n"
+                    "the vertex, on a bumpy neighbourhood, after 0 and %d two-step levels (tends to 0 where C1 holds).\n"
+                    "CC lambda1: Catmull-Clark's, from OpenSubdiv's stencils (closed form agrees to 1e-12).\n\n",
+                    options.rings, options.levels);
+        std::printf("%3s  %-6s  %-62s  %-4s  %-4s  %9s  %-17s  %9s\n", "n", "rules",
+                    "leading eigenvalues of the two-step matrix (by modulus)", "C1", "map", "l3/l1^2",
+                    "normal spread deg", "CC l1");
+    }
+    bool first = true;
+    for (Index n : valences)
+        for (Rules rules : rulesOf(options.rules)) {
+            const ValenceReport r = analyzeValence(n, rules, valenceOptions);
+            if (options.json) {
+                std::printf("%s%s", first ? "" : ",\n", jsonRecord(r).c_str());
+                first = false;
+                continue;
+            }
+            std::string values;
+            for (const auto& value : r.eigenvalues) {
+                if (!values.empty()) values += ' ';
+                values += eigenvalueText(value);
+            }
+            char spread[40];
+            std::snprintf(spread, sizeof spread, "%.3g -> %.3g", r.normalSpreadDegrees.front(), r.normalSpreadDegrees.back());
+            std::printf("%3u  %-6s  %-62s  %-4s  %-4s  %9.4f  %-17s  %9.6f\n", n, rulesName(rules), values.c_str(),
+                        yesNo(r.c1Necessary), yesNo(r.characteristicMapInjective), r.lambda3OverLambda1Squared, spread,
+                        r.ccLambda1);
+        }
+    if (options.json) std::printf("\n]\n");
+    else
+        std::printf("\nl3/l1^2 = 1: bounded curvature; > 1: curvature grows without bound at the vertex; < 1: a flat spot.\n"
+                    "Robust rules (beyond the paper) differ only at valence 2: c, d, e = 0, 1/3, 1/6.\n");
+    return 0;
+}
+
+int runCompare(const CompareOptions& options) {
+    if (options.levels % 2 != 0) throw InputError("--levels must be even: P-S after 2k steps against Catmull-Clark after k");
+    std::vector<std::string> warnings;
+    Mesh mesh = readObj(options.input, &warnings);
+    const CheckedMesh checked = checkMesh(mesh);
+    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    const Rules rules = options.rules == "robust" ? Rules::Robust : Rules::Paper;
+    const Fidelity f = compareLoaded(mesh, checked.connectivity, options.levels, rules, options.samples);
+    const double diagonal = f.cc.diagonal();
+    const auto maxOf = [](const std::vector<double>& v) {
+        double m = 0;
+        for (double d : v) m = std::max(m, d);
+        return m;
+    };
+    const auto meanOf = [](const std::vector<double>& v) {
+        double s = 0;
+        for (double d : v) s += d;
+        return v.empty() ? 0.0 : s / double(v.size());
+    };
+    if (options.json) {
+        const auto measures = [&](const MeshMeasures& m) {
+            return "{\"volume\": " + jsonNumber(m.volume) + ", \"area\": " + jsonNumber(m.area) + ", \"box_min\": [" +
+                   jsonNumber(m.lo[0]) + ", " + jsonNumber(m.lo[1]) + ", " + jsonNumber(m.lo[2]) + "], \"box_max\": [" +
+                   jsonNumber(m.hi[0]) + ", " + jsonNumber(m.hi[1]) + ", " + jsonNumber(m.hi[2]) +
+                   "], \"box_diagonal\": " + jsonNumber(m.diagonal()) + "}";
+        };
+        std::printf("{\"input\": \"%s\", \"rules\": \"%s\", \"ps_steps\": %d, \"cc_levels\": %d, \"ps_faces\": %u, "
+                    "\"cc_faces\": %u,\n \"input_measures\": %s,\n \"ps\": %s,\n \"cc\": %s,\n \"hausdorff\": %s, "
+                    "\"ps_to_cc_max\": %s, \"ps_to_cc_mean\": %s, \"cc_to_ps_max\": %s, \"cc_to_ps_mean\": %s, "
+                    "\"samples_each_way\": [%zu, %zu]}\n",
+                    options.input.c_str(), rulesName(rules), f.psSteps, f.ccLevels, f.psFaces, f.ccFaces,
+                    measures(f.input).c_str(), measures(f.ps).c_str(), measures(f.cc).c_str(),
+                    jsonNumber(f.hausdorff()).c_str(), jsonNumber(maxOf(f.psToCc)).c_str(),
+                    jsonNumber(meanOf(f.psToCc)).c_str(), jsonNumber(maxOf(f.ccToPs)).c_str(),
+                    jsonNumber(meanOf(f.ccToPs)).c_str(), f.psToCc.size(), f.ccToPs.size());
+    } else {
+        std::printf("%s: P-S %d steps (%s rules) against Catmull-Clark %d level%s (OpenSubdiv)\n\n", options.input.c_str(),
+                    f.psSteps, rulesName(rules), f.ccLevels, f.ccLevels == 1 ? "" : "s");
+        std::printf("%-14s %14s %14s %14s %10s\n", "", "input", "P-S", "Catmull-Clark", "P-S/CC");
+        std::printf("%-14s %14u %14u %14u %10.3f\n", "faces", mesh.faces.faceCount(), f.psFaces, f.ccFaces,
+                    double(f.psFaces) / double(f.ccFaces));
+        const auto row = [](const char* name, double input, double ps, double cc) {
+            std::printf("%-14s %14.6g %14.6g %14.6g %10.4f\n", name, input, ps, cc, cc != 0 ? ps / cc : 0.0);
+        };
+        row("volume", f.input.volume, f.ps.volume, f.cc.volume);
+        row("area", f.input.area, f.ps.area, f.cc.area);
+        row("box diagonal", f.input.diagonal(), f.ps.diagonal(), f.cc.diagonal());
+        const char* axes = "xyz";
+        for (std::size_t a = 0; a < 3; ++a) {
+            const std::string lo = std::string("box min ") + axes[a], hi = std::string("box max ") + axes[a];
+            row(lo.c_str(), f.input.lo[a], f.ps.lo[a], f.cc.lo[a]);
+            row(hi.c_str(), f.input.hi[a], f.ps.hi[a], f.cc.hi[a]);
+        }
+        std::printf("\nDistance between the surfaces (%zu and %zu points sampled on the faces, nearest point on the\n"
+                    "other mesh's triangles), also as a fraction of Catmull-Clark's box diagonal:\n",
+                    f.psToCc.size(), f.ccToPs.size());
+        std::printf("  P-S to Catmull-Clark   max %.6g (%.4g)  mean %.6g (%.4g)\n", maxOf(f.psToCc), maxOf(f.psToCc) / diagonal,
+                    meanOf(f.psToCc), meanOf(f.psToCc) / diagonal);
+        std::printf("  Catmull-Clark to P-S   max %.6g (%.4g)  mean %.6g (%.4g)\n", maxOf(f.ccToPs), maxOf(f.ccToPs) / diagonal,
+                    meanOf(f.ccToPs), meanOf(f.ccToPs) / diagonal);
+        std::printf("  Hausdorff (two-sided)  %.6g (%.4g)\n", f.hausdorff(), f.hausdorff() / diagonal);
+    }
+    if (!options.plot.empty()) {
+        writeFidelityPlot(options.plot, f, std::filesystem::path(options.input).filename().string());
+        if (!options.json) std::printf("\nPlot: %s\n", options.plot.c_str());
+    }
+    return 0;
+}
+
+void printVerdicts(const Mesh& mesh, const Connectivity& connectivity, int levels) {
+    std::printf("\nThe paper's claims, checked (psub analyze and psub compare give the details):\n");
+    std::printf("  %-48s %-58s %s\n", "claim", "measured", "holds?");
+    const auto verdict = [](const std::string& claim, const std::string& measured, const char* holds) {
+        std::printf("  %-48s %-58s %s\n", claim.c_str(), measured.c_str(), holds);
+    };
+    char text[160];
+
+    // Smoothness from the two-step matrices.
+    ValenceOptions quick;
+    quick.characteristicRings = 6;
+    const ValenceReport regular = analyzeValence(4, Rules::Paper, quick);
+    std::snprintf(text, sizeof text, "eigenvalues 1, %.3g, %.3g, %.3g; l3 = l1^2", regular.eigenvalues[1].real(),
+                  regular.eigenvalues[2].real(), regular.eigenvalues[3].real());
+    verdict("C2 at regular vertices (necessary conditions)", text,
+            regular.c1Necessary && std::abs(regular.lambda3OverLambda1Squared - 1) < 1e-9 ? "yes" : "no");
+    bool allHold = true;
+    double lowest = 1, highest = 0;
+    for (Index n = 3; n <= 8; ++n) {
+        const ValenceReport r = analyzeValence(n, Rules::Paper, quick);
+        allHold = allHold && r.c1Necessary && r.characteristicMapInjective;
+        lowest = std::min(lowest, r.lambda1);
+        highest = std::max(highest, r.lambda1);
+    }
+    std::snprintf(text, sizeof text, "l1 = l2 from %.4f to %.4f > |l3|; maps injective", lowest, highest);
+    verdict("C1 at extraordinary vertices, valence 3..8", text, allHold ? "yes" : "no");
+    const ValenceReport two = analyzeValence(2, Rules::Paper, quick), twoRobust = analyzeValence(2, Rules::Robust, quick);
+    std::snprintf(text, sizeof text, "l1 %.4f != l2 %.4f; normals %.0f deg apart", two.eigenvalues[1].real(),
+                  two.eigenvalues[2].real(), two.normalSpreadDegrees.back());
+    verdict("C1 at valence 2 (paper rules)", text, two.c1Necessary && two.characteristicMapInjective ? "yes" : "no");
+    std::snprintf(text, sizeof text, "l1 = l2 = %.4f > |l3| = %.4f; map injective", twoRobust.lambda1,
+                  std::abs(twoRobust.eigenvalues[3]));
+    verdict("C1 at valence 2 (--rules robust, beyond paper)", text,
+            twoRobust.c1Necessary && twoRobust.characteristicMapInjective ? "yes" : "no");
+
+    // Shape and face counts: this model, and the bundled cube (built here) where it shows most.
+    Mesh cube;
+    cube.positions = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
+    cube.faces.vertexCount = 8;
+    for (const auto& quad : {std::array<Index, 4>{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6}, {3, 0, 4, 7}})
+        cube.faces.addFace(quad);
+    const Connectivity cubeConnectivity = buildConnectivity(cube.faces);
+    const int steps = std::max(2, levels - levels % 2);
+    const std::string name = mesh.source.path.empty() ? "model" : std::filesystem::path(mesh.source.path).filename().string();
+    struct Subject {
+        std::string label;
+        const Mesh* model;
+        const Connectivity* links;
+    };
+    const Subject subjects[2] = {{name, &mesh, &connectivity}, {"cube", &cube, &cubeConnectivity}};
+    for (const auto& [label, model, links] : subjects) {
+        const Fidelity f = compareLoaded(*model, *links, steps, Rules::Paper, 0);
+        const double ratio = f.ps.volume / f.cc.volume;
+        std::snprintf(text, sizeof text, "volume x%.3f, area x%.3f (P-S %d steps / CC %d)", ratio, f.ps.area / f.cc.area,
+                      steps, steps / 2);
+        verdict("keeps the shape (like CC): " + label, text, std::abs(1 - ratio) <= 0.02 ? "yes (within 2%)" : "no (shrinks)");
+    }
+    for (const auto& [label, model, links] : {subjects[1], subjects[0]}) {
+        const bool preprocess = needsPreprocessing(model->faces, *links, Preprocess::Auto);
+        const Counts input = countMesh(model->faces, *links);
+        const Counts before = countsAfterSteps(input, preprocess ? 1 : 0), after = countsAfterSteps(input, (preprocess ? 1 : 0) + steps);
+        const std::vector<CatmarkLevel> cc = refineCatmark(model->faces, {}, steps / 2, false);
+        std::snprintf(text, sizeof text, "%llu%s -> %llu faces in %d steps; CC %d levels: %llu",
+                      (unsigned long long)before.faces, preprocess ? " paired" : "", (unsigned long long)after.faces, steps,
+                      steps / 2, (unsigned long long)cc.back().counts.faces);
+        const double factor = double(after.faces) / double(cc.back().counts.faces);
+        char holds[48];
+        std::snprintf(holds, sizeof holds, factor == 1 ? "yes" : "no: x%.3g CC's", factor);
+        verdict("2 P-S steps = 1 CC step in faces: " + label, text, holds);
+    }
+}
+
+}  // namespace psub::cli

@@ -1,0 +1,43 @@
+// Internal: the context's innards (niagara's device.cpp, kept small): instance with the
+// Khronos validation layer and a counting debug messenger, the physical device chosen by
+// capability (lavapipe accepted), one compute queue, and the pipelines shared by evaluators.
+#pragma once
+
+#include "check.h"
+#include "pipelines.h"
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+
+namespace psub {
+
+struct VulkanContext::Impl {
+    VkInstance instance = VK_NULL_HANDLE;
+    VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+    VkPhysicalDevice physical = VK_NULL_HANDLE;
+    VkDevice device = VK_NULL_HANDLE;
+    VkQueue queue = VK_NULL_HANDLE;
+    std::uint32_t queueFamily = 0;
+    VkPhysicalDeviceProperties properties{};
+    VkPhysicalDeviceMemoryProperties memory{};
+    VkDeviceSize maxAllocation = 0;        // maintenance3 maxMemoryAllocationSize
+    std::uint32_t timestampValidBits = 0;  // of the queue family; 0: no timestamps
+    bool validation = false, log = false;
+
+    std::atomic<std::uint64_t> messages{0};
+    mutable std::mutex lock;  // guards lastMessage and queue submissions
+    std::string lastMessage;
+
+    std::unique_ptr<vulkan::Pipelines> pipelines;
+
+    ~Impl();
+    // True when CPU and device share memory (lavapipe, integrated GPUs): no staging copies.
+    bool unifiedMemory() const {
+        return properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ||
+               properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU;
+    }
+};
+
+}  // namespace psub

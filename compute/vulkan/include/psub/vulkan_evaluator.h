@@ -1,0 +1,139 @@
+// psub/vulkan_evaluator.h: the Vulkan compute twin of psub/evaluator.h's CpuEvaluator: the same
+// tables in, the same numbers out (float, within rounding), on any Vulkan 1.1 device with a
+// compute queue, lavapipe (VK_PHYSICAL_DEVICE_TYPE_CPU) included. Tables are uploaded once;
+// a frame writes the control points through a persistently mapped buffer, runs one command
+// buffer (upload barrier, one dispatch per level, normals, fence) and reads back only what
+// was asked for. Link psub::vulkan; a CPU-only program never needs Vulkan. No Vulkan types
+// here: the device and its handles stay inside the library.
+#pragma once
+
+#include "psub/evaluator.h"
+#include "psub/tables.h"
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace psub {
+
+// Any Vulkan failure: what() names the failing call, its result, file and line, or why no
+// device could be used (no driver, no device with a compute queue, an override that matches
+// nothing: each with the list of devices seen).
+class VulkanError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+enum class Validation {
+    Default,  // on in debug builds of the library or when PSUB_VULKAN_VALIDATION=1, if installed
+    Off,
+    On,       // required: VulkanError when VK_LAYER_KHRONOS_validation is not installed
+};
+
+struct VulkanOptions {
+    Validation validation = Validation::Default;
+    // Device choice: an index into vkEnumeratePhysicalDevices or a case-insensitive substring
+    // of the device name. Empty: $PSUB_VULKAN_DEVICE when set, else the most capable device
+    // (discrete > integrated > virtual > CPU) that has a compute queue.
+    std::string device;
+    // Print the device chosen (and the ones passed over) on stderr; also $PSUB_VULKAN_LOG=1.
+    bool log = false;
+    // With validation: also synchronization validation (missing barriers are errors); also
+    // $PSUB_VULKAN_SYNC_VALIDATION=1. Off by default: Debian's layer (1.3.239) leaks memory
+    // with it (KhronosGroup/Vulkan-ValidationLayers#6033), which LeakSanitizer reports.
+    bool synchronizationValidation = false;
+};
+
+// One device and its compute queue, shared by evaluators (which must not outlive it).
+// Validation messages (warnings and errors) are printed on stderr and counted.
+class VulkanContext {
+public:
+    // Throws VulkanError when no usable device is found.
+    explicit VulkanContext(const VulkanOptions& options = {});
+    ~VulkanContext();
+    VulkanContext(const VulkanContext&) = delete;
+    VulkanContext& operator=(const VulkanContext&) = delete;
+
+    std::string deviceName() const;
+    bool validationEnabled() const;
+    // Validation-layer messages of warning or error severity since the context was created.
+    std::uint64_t validationMessageCount() const;
+    std::string lastValidationMessage() const;
+
+    struct Impl;
+    Impl& impl() { return *impl_; }
+
+private:
+    std::unique_ptr<Impl> impl_;
+};
+
+// Validation-layer messages (warnings and errors) of every context of this process, including
+// those reported while a context is destroyed (objects left alive).
+std::uint64_t vulkanValidationMessageTotal();
+
+// "index: name [type]" for every device the loader reports (for messages and logs).
+// Throws VulkanError when there is no Vulkan driver at all.
+std::vector<std::string> listVulkanDevices();
+
+enum class Staging {
+    Auto,    // direct writes to host-visible buffers on CPU and integrated devices, else staging copies
+    Always,  // staging buffers and copy commands even where memory is host-visible
+};
+
+struct VulkanEvaluatorOptions {
+    Staging staging = Staging::Auto;
+    // Largest byte range bound to one descriptor: 0 means the device's maxStorageBufferRange.
+    // Smaller values force the windowed path (bound ranges, split dispatches) on small meshes.
+    std::uint64_t maxBindingBytes = 0;
+};
+
+// GPU-side time of the last frame, from timestamp queries (valid is false when the queue has
+// no timestamps). levels: upload barrier and stencil dispatches; normals: both normal passes.
+struct GpuFrameTimes {
+    bool valid = false;
+    double totalMs = 0, levelsMs = 0, normalsMs = 0;
+};
+
+class VulkanEvaluator {
+public:
+    // Uploads the tables (they need not outlive the evaluator). `factorized` may be empty when
+    // form is PerLevel; `surface` may be empty when normals are never asked for. Throws
+    // std::invalid_argument for inconsistent tables or width 0 (or above 16), VulkanError on
+    // device failure or buffers beyond the device's limits.
+    VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
+                    const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
+                    std::uint32_t width = 3, const VulkanEvaluatorOptions& options = {});
+    ~VulkanEvaluator();
+    VulkanEvaluator(const VulkanEvaluator&) = delete;
+    VulkanEvaluator& operator=(const VulkanEvaluator&) = delete;
+
+    std::uint32_t controlCount() const;
+    std::uint32_t refinedCount() const;
+    std::uint32_t width() const;
+
+    // One frame. control: controlCount() * width() floats, packed. refined: empty (results stay
+    // on the device) or refinedCount() * width() floats. normals: empty (no normals pass) or
+    // 3 * refinedCount() floats, unit vertex normals of the refined surface as
+    // CpuEvaluator::normals computes them (needs width() >= 3 and a surface table).
+    void evaluate(std::span<const float> control, std::span<float> refined,
+                  std::span<float> normals = {});
+
+    // CpuEvaluator's contract: normals of the given refined positions (uploaded first).
+    void normals(std::span<const float> refined, std::span<float> normals);
+
+    GpuFrameTimes lastFrameTimes() const;
+    // Dispatches in a frame's command buffer: stencils only, and with normals.
+    std::size_t dispatchCount(bool withNormals = false) const;
+    // Bytes of device buffers held (tables, levels, normals, staging).
+    std::uint64_t deviceBytes() const;
+
+    struct Impl;
+
+private:
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace psub

@@ -1,0 +1,184 @@
+// Compute pipelines from the SPIR-V embedded at build time (shaders/*.comp), checked against
+// shaders/config.h, specialised and cached.
+#include "pipelines.h"
+
+#include <cstdint>
+#include <string>
+
+#include "face_normals.spv.h"
+#include "factorized.spv.h"
+#include "level.spv.h"
+#include "vertex_normals.spv.h"
+
+namespace psub::vulkan {
+namespace {
+
+struct Code {
+    const char* name;
+    std::span<const std::uint32_t> words;
+};
+
+Code code(Kernel kernel) {
+    switch (kernel) {
+    case Kernel::Level: return {"level.comp", psub_spirv_level};
+    case Kernel::Factorized: return {"factorized.comp", psub_spirv_factorized};
+    case Kernel::FaceNormals: return {"face_normals.comp", psub_spirv_face_normals};
+    case Kernel::VertexNormals: return {"vertex_normals.comp", psub_spirv_vertex_normals};
+    }
+    return {"?", {}};
+}
+
+// SPIR-V opcodes and enumerants used by reflectSpirv.
+enum : std::uint32_t {
+    OpExecutionMode = 16, OpTypeInt = 21, OpTypeFloat = 22, OpTypeVector = 23, OpTypeStruct = 30,
+    OpTypePointer = 32, OpVariable = 59, OpDecorate = 71, OpMemberDecorate = 72,
+    ExecutionModeLocalSize = 17, DecorationBinding = 33, DecorationDescriptorSet = 34,
+    DecorationOffset = 35, StorageClassPushConstant = 9,
+};
+
+// Throws VulkanError when a module disagrees with shaders/config.h.
+void checkContract(const char* name, const ShaderInfo& info) {
+    auto fail = [&](const std::string& what) {
+        throw VulkanError(std::string("shader ") + name + " does not match shaders/config.h: " + what);
+    };
+    if (info.localSize[0] != PSUB_WORKGROUP_SIZE || info.localSize[1] != 1 || info.localSize[2] != 1)
+        fail("local size " + std::to_string(info.localSize[0]) + "x" + std::to_string(info.localSize[1]) + "x" +
+             std::to_string(info.localSize[2]) + ", expected " + std::to_string(PSUB_WORKGROUP_SIZE) + "x1x1");
+    for (uint set : info.sets)
+        if (set != 0) fail("descriptor set " + std::to_string(set) + " (only set 0 exists)");
+    for (uint binding : info.bindings)
+        if (binding >= PSUB_BINDING_COUNT) fail("binding " + std::to_string(binding) + " beyond the layout");
+    if (info.pushConstantBytes != sizeof(PushConstants))
+        fail("push constants of " + std::to_string(info.pushConstantBytes) + " bytes, expected " +
+             std::to_string(sizeof(PushConstants)));
+}
+
+}  // namespace
+
+ShaderInfo reflectSpirv(std::span<const std::uint32_t> code) {
+    ShaderInfo info;
+    if (code.size() < 5 || code[0] != 0x07230203u) throw VulkanError("not a SPIR-V module");
+    std::map<std::uint32_t, std::uint32_t> scalarBytes;                 // type id -> bytes
+    std::map<std::uint32_t, std::vector<std::uint32_t>> structMembers;  // struct id -> member type ids
+    std::map<std::uint32_t, std::map<std::uint32_t, std::uint32_t>> memberOffsets;
+    std::map<std::uint32_t, std::uint32_t> pointee;                     // pointer id -> type id
+    std::uint32_t pushPointer = 0;
+    for (std::size_t at = 5; at < code.size();) {
+        const std::uint32_t op = code[at] & 0xffffu, count = code[at] >> 16;
+        if (count == 0 || at + count > code.size()) throw VulkanError("truncated SPIR-V module");
+        const std::uint32_t* w = &code[at];
+        switch (op) {
+        case OpExecutionMode:
+            if (count >= 6 && w[2] == ExecutionModeLocalSize) info.localSize[0] = w[3], info.localSize[1] = w[4], info.localSize[2] = w[5];
+            break;
+        case OpDecorate:
+            if (count >= 4 && w[2] == DecorationBinding) info.bindings.push_back(w[3]);
+            if (count >= 4 && w[2] == DecorationDescriptorSet) info.sets.push_back(w[3]);
+            break;
+        case OpMemberDecorate:
+            if (count >= 5 && w[3] == DecorationOffset) memberOffsets[w[1]][w[2]] = w[4];
+            break;
+        case OpTypeInt:
+        case OpTypeFloat: scalarBytes[w[1]] = w[2] / 8; break;
+        case OpTypeVector: scalarBytes[w[1]] = scalarBytes[w[2]] * w[3]; break;
+        case OpTypeStruct: structMembers[w[1]].assign(w + 2, w + count); break;
+        case OpTypePointer: pointee[w[1]] = w[3]; break;
+        case OpVariable:
+            if (count >= 4 && w[3] == StorageClassPushConstant) pushPointer = w[1];
+            break;
+        default: break;
+        }
+        at += count;
+    }
+    if (pushPointer) {
+        const std::uint32_t block = pointee[pushPointer];
+        const std::vector<std::uint32_t>& members = structMembers[block];
+        for (std::uint32_t m = 0; m < members.size(); ++m) {
+            const std::uint32_t end = memberOffsets[block][m] + scalarBytes[members[m]];
+            if (end > info.pushConstantBytes) info.pushConstantBytes = end;
+        }
+    }
+    return info;
+}
+
+Pipelines::Pipelines(VkDevice device) : device_(device) {
+    try {
+        VkDescriptorSetLayoutBinding bindings[PSUB_BINDING_COUNT];
+        for (uint i = 0; i < PSUB_BINDING_COUNT; ++i)
+            bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+        VkDescriptorSetLayoutCreateInfo setInfo{};
+        setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+        setInfo.bindingCount = PSUB_BINDING_COUNT;
+        setInfo.pBindings = bindings;
+        VK_CHECK(vkCreateDescriptorSetLayout(device_, &setInfo, nullptr, &setLayout_));
+        const VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants)};
+        VkPipelineLayoutCreateInfo layoutInfo{};
+        layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+        layoutInfo.setLayoutCount = 1;
+        layoutInfo.pSetLayouts = &setLayout_;
+        layoutInfo.pushConstantRangeCount = 1;
+        layoutInfo.pPushConstantRanges = &push;
+        VK_CHECK(vkCreatePipelineLayout(device_, &layoutInfo, nullptr, &layout_));
+        VkPipelineCacheCreateInfo cacheInfo{};
+        cacheInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO;
+        VK_CHECK(vkCreatePipelineCache(device_, &cacheInfo, nullptr, &cache_));
+        for (int k = 0; k < kKernelCount; ++k) {
+            const Code c = code(Kernel(k));
+            checkContract(c.name, reflectSpirv(c.words));
+            VkShaderModuleCreateInfo moduleInfo{};
+            moduleInfo.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+            moduleInfo.codeSize = c.words.size_bytes();
+            moduleInfo.pCode = c.words.data();
+            VK_CHECK(vkCreateShaderModule(device_, &moduleInfo, nullptr, &modules_[k]));
+        }
+    } catch (...) {
+        release();
+        throw;
+    }
+}
+
+Pipelines::~Pipelines() { release(); }
+
+void Pipelines::release() {
+    for (auto& entry : pipelines_) vkDestroyPipeline(device_, entry.second, nullptr);
+    pipelines_.clear();
+    for (VkShaderModule& m : modules_) {
+        if (m) vkDestroyShaderModule(device_, m, nullptr);
+        m = VK_NULL_HANDLE;
+    }
+    if (cache_) vkDestroyPipelineCache(device_, cache_, nullptr);
+    if (layout_) vkDestroyPipelineLayout(device_, layout_, nullptr);
+    if (setLayout_) vkDestroyDescriptorSetLayout(device_, setLayout_, nullptr);
+    cache_ = VK_NULL_HANDLE;
+    layout_ = VK_NULL_HANDLE;
+    setLayout_ = VK_NULL_HANDLE;
+}
+
+VkPipeline Pipelines::get(Kernel kernel, const Specialization& s) {
+    const auto [components, sourceStride, destinationStride, sourceWindowed, destinationWindowed] = s.key();
+    const auto key = std::tuple(int(kernel), components, sourceStride, destinationStride, sourceWindowed, destinationWindowed);
+    std::lock_guard guard(lock_);
+    if (auto found = pipelines_.find(key); found != pipelines_.end()) return found->second;
+
+    const std::uint32_t values[5] = {components, sourceStride, destinationStride, VkBool32(sourceWindowed),
+                                     VkBool32(destinationWindowed)};
+    VkSpecializationMapEntry entries[5];
+    const std::uint32_t ids[5] = {PSUB_SPEC_COMPONENTS, PSUB_SPEC_SOURCE_STRIDE, PSUB_SPEC_DESTINATION_STRIDE,
+                                  PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED};
+    for (std::uint32_t i = 0; i < 5; ++i) entries[i] = {ids[i], 4 * i, 4};
+    VkSpecializationInfo specialization{5, entries, sizeof values, values};
+    VkComputePipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+    info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = modules_[int(kernel)];
+    info.stage.pName = "main";
+    info.stage.pSpecializationInfo = &specialization;
+    info.layout = layout_;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateComputePipelines(device_, cache_, 1, &info, nullptr, &pipeline));
+    pipelines_.emplace(key, pipeline);
+    return pipeline;
+}
+
+}  // namespace psub::vulkan

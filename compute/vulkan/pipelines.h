@@ -1,0 +1,74 @@
+// Internal: the compute pipelines (niagara's shaders.cpp, kept small). SPIR-V embedded at
+// build time; each module is checked against shaders/config.h when it is created (local size,
+// bindings, push-constant size); pipelines are specialised per width, strides and windowing
+// and cached for the context's lifetime.
+#pragma once
+
+#include "check.h"
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <span>
+#include <tuple>
+#include <vector>
+
+namespace psub::vulkan {
+
+using uint = std::uint32_t;
+#include "config.h"
+
+struct PushConstants {
+    PSUB_PUSH_CONSTANT_MEMBERS
+};
+struct GroupRecord {
+    PSUB_GROUP_RECORD_MEMBERS
+};
+static_assert(sizeof(PushConstants) == 32 && sizeof(GroupRecord) == 32);
+
+enum class Kernel { Level, Factorized, FaceNormals, VertexNormals };
+inline constexpr int kKernelCount = 4;
+
+struct Specialization {
+    uint components = 3, sourceStride = 3, destinationStride = 3;
+    bool sourceWindowed = false, destinationWindowed = false;
+
+    auto key() const {
+        return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed);
+    }
+};
+
+// What a SPIR-V module declares, read from its instructions.
+struct ShaderInfo {
+    uint localSize[3] = {0, 0, 0};
+    std::vector<uint> bindings;   // of descriptor set 0
+    std::vector<uint> sets;       // every descriptor set used
+    uint pushConstantBytes = 0;   // 0 when there is no push-constant block
+};
+ShaderInfo reflectSpirv(std::span<const std::uint32_t> code);
+
+class Pipelines {
+public:
+    explicit Pipelines(VkDevice device);
+    ~Pipelines();
+    Pipelines(const Pipelines&) = delete;
+    Pipelines& operator=(const Pipelines&) = delete;
+
+    VkDescriptorSetLayout setLayout() const { return setLayout_; }
+    VkPipelineLayout layout() const { return layout_; }
+    // Created on first use, then cached. Thread-safe.
+    VkPipeline get(Kernel kernel, const Specialization& specialization);
+
+private:
+    void release();
+
+    VkDevice device_;
+    VkDescriptorSetLayout setLayout_ = VK_NULL_HANDLE;
+    VkPipelineLayout layout_ = VK_NULL_HANDLE;
+    VkPipelineCache cache_ = VK_NULL_HANDLE;
+    VkShaderModule modules_[kKernelCount] = {};
+    std::mutex lock_;
+    std::map<std::tuple<int, uint, uint, uint, bool, bool>, VkPipeline> pipelines_;
+};
+
+}  // namespace psub::vulkan

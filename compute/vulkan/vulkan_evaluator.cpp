@@ -1,0 +1,769 @@
+// The Vulkan evaluator. Construction does all the work that does not change per frame:
+// tables uploaded, every buffer bound (in windows no larger than maxStorageBufferRange, rows
+// split into chunks whose table ranges fit one binding), one descriptor set per dispatch.
+// A frame's command buffer is recorded once per kind of frame and resubmitted: write the
+// control points, submit, wait on the fence, copy out what was asked for.
+#include "psub/vulkan_evaluator.h"
+
+#include "device.h"
+#include "pipelines.h"
+#include "resources.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cstring>
+#include <string>
+
+namespace psub {
+
+using namespace vulkan;
+
+namespace {
+
+constexpr std::uint32_t kMaxWidth = 16;
+constexpr VkBufferUsageFlags kUsage =
+    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+
+// Frame kinds: which parts a frame's command buffer holds.
+enum : unsigned {
+    kStencils = 1,       // control points uploaded, stencil tables applied
+    kNormals = 2,        // both normal passes
+    kReadRefined = 4,    // refined positions copied back
+    kReadNormals = 8,    // normals copied back
+    kUploadRefined = 16, // refined positions uploaded (normals of given positions)
+    kFrameKinds = 32,
+};
+enum : std::uint32_t { kQueryStart, kQueryStencils, kQueryNormals, kQueryEnd, kQueryCount };
+
+std::string mib(std::uint64_t bytes) {
+    return bytes < (1u << 20) ? std::to_string((bytes + 1023) >> 10) + " KiB"
+                              : std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB";
+}
+
+// A vertex-like buffer (a level's positions, face normals, normals), bound as up to
+// PSUB_VERTEX_WINDOWS consecutive windows of `windowSize` elements.
+struct VertexBuffer {
+    Buffer buffer;
+    std::uint64_t elements = 0;
+    std::uint32_t stride = 0;      // floats per element
+    std::uint32_t windowSize = 0;  // elements per window
+    std::uint32_t windows = 1;
+};
+
+// A range of a table array bound to one descriptor: elements from firstElement on.
+struct Window {
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceSize offset = 0, range = 0;
+    std::uint64_t firstElement = 0;
+};
+
+struct Dispatch {
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    PushConstants push{};
+    std::uint32_t groupsX = 0, groupsY = 0;
+    // What the descriptor set binds (written once, at construction).
+    const VertexBuffer* source = nullptr;
+    const VertexBuffer* destination = nullptr;
+    Window tables[3];
+};
+
+// Dispatches of one kernel that may run together, then a barrier on what they wrote.
+struct Stage {
+    Kernel kernel = Kernel::Level;
+    Specialization specialization;
+    std::vector<Dispatch> dispatches;
+    const VertexBuffer* written = nullptr;
+};
+
+// One CSR table split into chunks whose entries fit one binding.
+struct CsrChunk {
+    std::uint64_t rowBegin, rowEnd, entryBegin, entryEnd, offsetsBegin;
+};
+
+// Table uploads: written in place where memory is host-visible, else through staging buffers
+// copied by one command buffer at the end.
+class Uploader {
+public:
+    Uploader(VulkanContext::Impl& context, bool direct) : context_(context), direct_(direct) {}
+    ~Uploader() {
+        for (Buffer& b : staging_) destroyBuffer(context_, b);
+    }
+
+    template <class T>
+    Buffer upload(const std::vector<T>& data, std::vector<Buffer>& owner) {
+        const VkDeviceSize bytes = data.size() * sizeof(T);
+        owner.push_back(createBuffer(context_, bytes, kUsage, Memory::Device, direct_));
+        Buffer& b = owner.back();
+        if (direct_) {
+            if (bytes) std::memcpy(b.mapped, data.data(), bytes);
+        } else if (bytes) {
+            staging_.push_back(createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Memory::Upload, true));
+            std::memcpy(staging_.back().mapped, data.data(), bytes);
+            copies_.push_back({staging_.back().buffer, b.buffer, bytes});
+        }
+        return b;
+    }
+
+    // Runs the staging copies (if any) and waits for them.
+    void finish(VkCommandPool pool, VkFence fence) {
+        if (copies_.empty()) return;
+        VkCommandBufferAllocateInfo allocate{};
+        allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        allocate.commandPool = pool;
+        allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        allocate.commandBufferCount = 1;
+        VkCommandBuffer command = VK_NULL_HANDLE;
+        VK_CHECK(vkAllocateCommandBuffers(context_.device, &allocate, &command));
+        VkCommandBufferBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+        begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+        VK_CHECK(vkBeginCommandBuffer(command, &begin));
+        for (const Copy& c : copies_) {
+            const VkBufferCopy region{0, 0, c.bytes};
+            vkCmdCopyBuffer(command, c.from, c.to, 1, &region);
+        }
+        memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+        VK_CHECK(vkEndCommandBuffer(command));
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &command;
+        {
+            std::lock_guard guard(context_.lock);
+            VK_CHECK(vkQueueSubmit(context_.queue, 1, &submit, fence));
+        }
+        VK_CHECK(vkWaitForFences(context_.device, 1, &fence, VK_TRUE, UINT64_MAX));
+        VK_CHECK(vkResetFences(context_.device, 1, &fence));
+        vkFreeCommandBuffers(context_.device, pool, 1, &command);
+        copies_.clear();
+    }
+
+private:
+    struct Copy {
+        VkBuffer from, to;
+        VkDeviceSize bytes;
+    };
+    VulkanContext::Impl& context_;
+    bool direct_;
+    std::vector<Buffer> staging_;
+    std::vector<Copy> copies_;
+};
+
+}  // namespace
+
+struct VulkanEvaluator::Impl {
+    VulkanContext::Impl& context;
+    std::uint32_t width, controls, refined;
+    bool staging = false;
+    std::uint64_t limit = 0, alignment = 16, maxRows = 0;
+
+    std::vector<VertexBuffer> levels;   // levels[0]: control points; levels.back(): refined (may be levels[0])
+    VertexBuffer faceNormals, normals;
+    std::vector<Buffer> tables;         // uploaded once
+    Buffer controlUpload, refinedHost, normalsHost;  // staging only
+    std::vector<Stage> stencilStages, normalStages;
+    bool hasSurface = false;
+
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkCommandPool commandPool = VK_NULL_HANDLE;
+    VkCommandBuffer frames[kFrameKinds] = {};
+    VkFence fence = VK_NULL_HANDLE;
+    VkQueryPool queries = VK_NULL_HANDLE;
+    GpuFrameTimes times;
+
+    Impl(VulkanContext::Impl& c, std::uint32_t w) : context(c), width(w), controls(0), refined(0) {}
+    ~Impl();
+
+    VertexBuffer& refinedBuffer() { return levels.back(); }
+
+    // Construction steps.
+    void makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride, bool mapped);
+    Window window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin, std::uint64_t end) const;
+    bool fits(std::uint64_t bytes) const { return bytes + alignment <= limit; }
+    template <class Fits>
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> split(std::uint64_t rows, Fits fitsRange, const char* what) const;
+    template <class Offset>
+    std::vector<CsrChunk> splitCsr(const std::vector<Offset>& offsets, std::vector<std::uint32_t>& relative,
+                                   const char* what) const;
+    Dispatch dispatch(std::uint64_t rows) const;
+    void buildPerLevel(const PerLevelTable& table, Uploader& uploader);
+    void buildFactorized(const FactorizedTable& table, Uploader& uploader);
+    void buildNormals(const SurfaceTable& surface, Uploader& uploader);
+    void writeDescriptorSets();
+
+    // Frames.
+    VkCommandBuffer frame(unsigned kind);
+    void record(VkCommandBuffer command, unsigned kind);
+    void runStages(VkCommandBuffer command, const std::vector<Stage>& stages);
+    void submit(unsigned kind);
+};
+
+void VulkanEvaluator::Impl::makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride,
+                                             bool mapped) {
+    v.elements = elements;
+    v.stride = stride;
+    // Windows are whole multiples of 64 elements, so each starts at a 256-byte multiple (the
+    // largest minStorageBufferOffsetAlignment the specification allows).
+    std::uint64_t perWindow = limit / (4ull * stride);
+    perWindow -= perWindow % 64;
+    if (perWindow == 0) throw VulkanError("binding limit of " + std::to_string(limit) + " bytes is too small");
+    const std::uint64_t windows = std::max<std::uint64_t>(1, (elements + perWindow - 1) / perWindow);
+    if (windows > PSUB_VERTEX_WINDOWS)
+        throw VulkanError("a vertex buffer of " + mib(elements * stride * 4) + " needs " + std::to_string(windows) +
+                          " bindings of at most " + mib(limit) + " on " + context.properties.deviceName +
+                          "; PSub binds at most " + std::to_string(PSUB_VERTEX_WINDOWS));
+    v.windows = std::uint32_t(windows);
+    v.windowSize = std::uint32_t(std::min<std::uint64_t>(perWindow, 0xffffffffu));
+    const bool map = mapped && !staging;
+    v.buffer = createBuffer(context, elements * stride * 4, kUsage, Memory::Device, map);
+}
+
+Window VulkanEvaluator::Impl::window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin,
+                                     std::uint64_t end) const {
+    Window w;
+    w.buffer = buffer.buffer;
+    if (begin >= end) {  // nothing is read: any valid range
+        w.offset = 0;
+        w.range = std::min<VkDeviceSize>(buffer.size, limit);
+        return w;
+    }
+    w.offset = begin * elementBytes / alignment * alignment;
+    w.range = end * elementBytes - w.offset;
+    w.firstElement = w.offset / elementBytes;
+    assert(w.offset % elementBytes == 0 && w.range <= limit && w.offset + w.range <= buffer.size);
+    return w;
+}
+
+// Greedy split of rows [0, rows) into the longest chunks [a, b) for which fitsRange(a, b).
+template <class Fits>
+std::vector<std::pair<std::uint64_t, std::uint64_t>> VulkanEvaluator::Impl::split(std::uint64_t rows, Fits fitsRange,
+                                                                                   const char* what) const {
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> chunks;
+    for (std::uint64_t a = 0; a < rows;) {
+        std::uint64_t b = std::min(rows, a + maxRows);
+        if (!fitsRange(a, b)) {
+            std::uint64_t lo = a, hi = b;  // fitsRange(a, lo), !fitsRange(a, hi)
+            while (hi - lo > 1) {
+                const std::uint64_t mid = lo + (hi - lo) / 2;
+                (fitsRange(a, mid) ? lo : hi) = mid;
+            }
+            b = lo;
+        }
+        if (b == a)
+            throw VulkanError(std::string("one row of the ") + what + " needs more than one binding of " + mib(limit));
+        chunks.emplace_back(a, b);
+        a = b;
+    }
+    return chunks;
+}
+
+template <class Offset>
+std::vector<CsrChunk> VulkanEvaluator::Impl::splitCsr(const std::vector<Offset>& offsets,
+                                                      std::vector<std::uint32_t>& relative, const char* what) const {
+    const std::uint64_t rows = offsets.size() - 1;
+    const auto ranges = split(
+        rows,
+        [&](std::uint64_t a, std::uint64_t b) {
+            return fits(4 * (std::uint64_t(offsets[b]) - std::uint64_t(offsets[a]))) && fits(4 * (b - a + 1));
+        },
+        what);
+    std::vector<CsrChunk> chunks;
+    for (const auto& [a, b] : ranges) {
+        CsrChunk c{a, b, std::uint64_t(offsets[a]), std::uint64_t(offsets[b]), relative.size()};
+        const std::uint64_t first = c.entryBegin < c.entryEnd ? c.entryBegin * 4 / alignment * alignment / 4 : 0;
+        for (std::uint64_t r = a; r <= b; ++r) relative.push_back(std::uint32_t(std::uint64_t(offsets[r]) - first));
+        chunks.push_back(c);
+    }
+    return chunks;
+}
+
+Dispatch VulkanEvaluator::Impl::dispatch(std::uint64_t rows) const {
+    Dispatch d;
+    d.push.rowCount = std::uint32_t(rows);
+    const std::uint64_t groups = (rows + PSUB_WORKGROUP_SIZE - 1) / PSUB_WORKGROUP_SIZE;
+    d.groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.properties.limits.maxComputeWorkGroupCount[0]));
+    d.groupsY = d.groupsX ? std::uint32_t((groups + d.groupsX - 1) / d.groupsX) : 0;
+    return d;
+}
+
+void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& uploader) {
+    std::vector<GroupRecord> records;
+    struct Pending {
+        std::size_t level;
+        Dispatch dispatch;
+        std::uint64_t groupBegin, groupEnd, destinationBegin, destinationEnd, indexBegin, indexEnd;
+    };
+    std::vector<Pending> pending;
+    for (std::size_t k = 0; k < table.levels.size(); ++k) {
+        const StencilLevel& level = table.levels[k];
+        const std::uint64_t rows = level.rowEnd - level.rowBegin;
+        // The level's groups: first row (level-relative) and first index of each.
+        std::vector<std::uint64_t> firstRow, firstIndex;
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g)
+            if (table.groups[g].rowCount) {
+                firstRow.push_back(table.groups[g].rowBegin - level.rowBegin);
+                firstIndex.push_back(g);
+            }
+        auto groupOf = [&](std::uint64_t row) {  // position in firstRow of the group holding row
+            return std::size_t(std::upper_bound(firstRow.begin(), firstRow.end(), row) - firstRow.begin()) - 1;
+        };
+        auto indexAt = [&](std::uint64_t row) {  // first index of `row` (row == rows: end of the level)
+            if (row == rows) {
+                const RowGroup& g = table.groups[firstIndex.back()];
+                return g.indexBegin + g.rowCount * g.width;
+            }
+            const RowGroup& g = table.groups[firstIndex[groupOf(row)]];
+            return g.indexBegin + (row - firstRow[groupOf(row)]) * g.width;
+        };
+        const auto chunks = split(
+            rows,
+            [&](std::uint64_t a, std::uint64_t b) {
+                return fits(4 * (indexAt(b) - indexAt(a))) && fits(4 * (b - a)) &&
+                       fits(sizeof(GroupRecord) * (groupOf(b - 1) - groupOf(a) + 1));
+            },
+            "per-level table");
+        for (const auto& [a, b] : chunks) {
+            Pending p{k, dispatch(b - a), records.size(), 0, level.rowBegin + a, level.rowBegin + b, indexAt(a), indexAt(b)};
+            const std::uint64_t indexFirst = p.indexBegin * 4 / alignment * alignment / 4;
+            for (std::size_t i = groupOf(a); i <= groupOf(b - 1); ++i) {
+                const RowGroup& g = table.groups[firstIndex[i]];
+                const std::uint64_t first = std::max(firstRow[i], a);
+                records.push_back({std::uint32_t(first - a),
+                                   std::uint32_t(g.indexBegin + (first - firstRow[i]) * g.width - indexFirst), g.n, g.m,
+                                   float(g.centre), float(g.edge), float(g.diagonal), 0});
+            }
+            p.groupEnd = records.size();
+            pending.push_back(p);
+        }
+    }
+    const Buffer groups = uploader.upload(records, tables);
+    const Buffer destinations = uploader.upload(table.destinations, tables);
+    const Buffer indices = uploader.upload(table.indices, tables);
+    for (std::size_t k = 0; k < table.levels.size(); ++k) {
+        Stage stage;
+        stage.kernel = Kernel::Level;
+        stage.specialization = {width, levels[k].stride, levels[k + 1].stride, levels[k].windows > 1,
+                                levels[k + 1].windows > 1};
+        stage.written = &levels[k + 1];
+        for (Pending& p : pending) {
+            if (p.level != k) continue;
+            Dispatch& d = p.dispatch;
+            d.source = &levels[k];
+            d.destination = &levels[k + 1];
+            d.tables[0] = window(groups, sizeof(GroupRecord), p.groupBegin, p.groupEnd);
+            d.tables[1] = window(destinations, 4, p.destinationBegin, p.destinationEnd);
+            d.tables[2] = window(indices, 4, p.indexBegin, p.indexEnd);
+            d.push.groupBase = std::uint32_t(p.groupBegin - d.tables[0].firstElement);
+            d.push.groupCount = std::uint32_t(p.groupEnd - p.groupBegin);
+            d.push.tableBase = std::uint32_t(p.destinationBegin - d.tables[1].firstElement);
+            d.push.sourceWindowSize = levels[k].windowSize;
+            d.push.destinationWindowSize = levels[k + 1].windowSize;
+            stage.dispatches.push_back(d);
+        }
+        stencilStages.push_back(std::move(stage));
+    }
+}
+
+void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Uploader& uploader) {
+    std::vector<std::uint32_t> relative;
+    const std::vector<CsrChunk> chunks = splitCsr(table.offsets, relative, "factorized table");
+    const Buffer offsets = uploader.upload(relative, tables);
+    const Buffer indices = uploader.upload(table.indices, tables);
+    const Buffer weights = uploader.upload(table.weights, tables);
+    Stage stage;
+    stage.kernel = Kernel::Factorized;
+    stage.specialization = {width, levels.front().stride, refinedBuffer().stride, levels.front().windows > 1,
+                            refinedBuffer().windows > 1};
+    stage.written = &refinedBuffer();
+    for (const CsrChunk& c : chunks) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &levels.front();
+        d.destination = &refinedBuffer();
+        d.tables[0] = window(offsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(indices, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = window(weights, 4, c.entryBegin, c.entryEnd);
+        d.push.rowBase = std::uint32_t(c.rowBegin);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = levels.front().windowSize;
+        d.push.destinationWindowSize = refinedBuffer().windowSize;
+        stage.dispatches.push_back(d);
+    }
+    stencilStages.push_back(std::move(stage));
+}
+
+void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& uploader) {
+    const std::uint64_t faces = surface.faceOffsets.size() - 1;
+    makeVertexBuffer(faceNormals, faces, 4, false);  // padded: read and written as vec4
+    makeVertexBuffer(normals, surface.vertexCount, 3, true);
+    std::vector<std::uint32_t> faceRelative, vertexRelative;
+    const std::vector<CsrChunk> faceChunks = splitCsr(surface.faceOffsets, faceRelative, "surface's faces");
+    const std::vector<CsrChunk> vertexChunks = splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
+    const Buffer faceOffsets = uploader.upload(faceRelative, tables);
+    const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
+    const Buffer vertexOffsets = uploader.upload(vertexRelative, tables);
+    const Buffer vertexFaces = uploader.upload(surface.vertexFaces, tables);
+    const VertexBuffer& positions = refinedBuffer();
+
+    Stage faceStage;
+    faceStage.kernel = Kernel::FaceNormals;
+    faceStage.specialization = {3, positions.stride, faceNormals.stride, positions.windows > 1, faceNormals.windows > 1};
+    faceStage.written = &faceNormals;
+    for (const CsrChunk& c : faceChunks) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &positions;
+        d.destination = &faceNormals;
+        d.tables[0] = window(faceOffsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(faceVerts, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = d.tables[1];
+        d.push.rowBase = std::uint32_t(c.rowBegin);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = positions.windowSize;
+        d.push.destinationWindowSize = faceNormals.windowSize;
+        faceStage.dispatches.push_back(d);
+    }
+    Stage vertexStage;
+    vertexStage.kernel = Kernel::VertexNormals;
+    vertexStage.specialization = {3, faceNormals.stride, normals.stride, faceNormals.windows > 1, normals.windows > 1};
+    vertexStage.written = &normals;
+    for (const CsrChunk& c : vertexChunks) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &faceNormals;
+        d.destination = &normals;
+        d.tables[0] = window(vertexOffsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(vertexFaces, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = d.tables[1];
+        d.push.rowBase = std::uint32_t(c.rowBegin);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = faceNormals.windowSize;
+        d.push.destinationWindowSize = normals.windowSize;
+        vertexStage.dispatches.push_back(d);
+    }
+    normalStages.push_back(std::move(faceStage));
+    normalStages.push_back(std::move(vertexStage));
+}
+
+void VulkanEvaluator::Impl::writeDescriptorSets() {
+    std::uint32_t sets = 0;
+    for (const auto* stages : {&stencilStages, &normalStages})
+        for (const Stage& s : *stages) sets += std::uint32_t(s.dispatches.size());
+    if (sets == 0) return;
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * PSUB_BINDING_COUNT};
+    VkDescriptorPoolCreateInfo poolInfo{};
+    poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    poolInfo.maxSets = sets;
+    poolInfo.poolSizeCount = 1;
+    poolInfo.pPoolSizes = &size;
+    VK_CHECK(vkCreateDescriptorPool(context.device, &poolInfo, nullptr, &descriptorPool));
+    const VkDescriptorSetLayout layout = context.pipelines->setLayout();
+    // A vertex buffer's window w (window 0 again beyond its last: every binding must be valid).
+    auto vertexWindow = [&](const VertexBuffer& v, std::uint32_t w) {
+        VkDescriptorBufferInfo info{v.buffer.buffer, 0, v.buffer.size};
+        if (v.elements == 0) return info;
+        if (w >= v.windows) w = 0;
+        const std::uint64_t first = std::uint64_t(w) * v.windowSize;
+        const std::uint64_t count = std::min<std::uint64_t>(v.windowSize, v.elements - first);
+        info.offset = first * v.stride * 4;
+        info.range = count * v.stride * 4;
+        return info;
+    };
+    for (auto* stages : {&stencilStages, &normalStages})
+        for (Stage& s : *stages)
+            for (Dispatch& d : s.dispatches) {
+                VkDescriptorSetAllocateInfo allocate{};
+                allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+                allocate.descriptorPool = descriptorPool;
+                allocate.descriptorSetCount = 1;
+                allocate.pSetLayouts = &layout;
+                VK_CHECK(vkAllocateDescriptorSets(context.device, &allocate, &d.set));
+                VkDescriptorBufferInfo infos[PSUB_BINDING_COUNT];
+                for (std::uint32_t w = 0; w < PSUB_VERTEX_WINDOWS; ++w) {
+                    infos[PSUB_BINDING_SOURCE + w] = vertexWindow(*d.source, w);
+                    infos[PSUB_BINDING_DESTINATION + w] = vertexWindow(*d.destination, w);
+                }
+                for (int t = 0; t < 3; ++t)
+                    infos[PSUB_BINDING_TABLE_A + t] = {d.tables[t].buffer, d.tables[t].offset, d.tables[t].range};
+                VkWriteDescriptorSet writes[PSUB_BINDING_COUNT];
+                for (std::uint32_t b = 0; b < PSUB_BINDING_COUNT; ++b) {
+                    writes[b] = {};
+                    writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+                    writes[b].dstSet = d.set;
+                    writes[b].dstBinding = b;
+                    writes[b].descriptorCount = 1;
+                    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+                    writes[b].pBufferInfo = &infos[b];
+                }
+                vkUpdateDescriptorSets(context.device, PSUB_BINDING_COUNT, writes, 0, nullptr);
+            }
+}
+
+VulkanEvaluator::Impl::~Impl() {
+    if (context.device) vkDeviceWaitIdle(context.device);
+    if (queries) vkDestroyQueryPool(context.device, queries, nullptr);
+    if (fence) vkDestroyFence(context.device, fence, nullptr);
+    if (commandPool) vkDestroyCommandPool(context.device, commandPool, nullptr);
+    if (descriptorPool) vkDestroyDescriptorPool(context.device, descriptorPool, nullptr);
+    for (Buffer& b : tables) destroyBuffer(context, b);
+    for (std::size_t k = 0; k < levels.size(); ++k)
+        if (k == 0 || levels[k].buffer.buffer != levels[0].buffer.buffer) destroyBuffer(context, levels[k].buffer);
+    for (Buffer* b : {&faceNormals.buffer, &normals.buffer, &controlUpload, &refinedHost, &normalsHost})
+        destroyBuffer(context, *b);
+}
+
+VkCommandBuffer VulkanEvaluator::Impl::frame(unsigned kind) {
+    if (frames[kind]) return frames[kind];
+    VkCommandBufferAllocateInfo allocate{};
+    allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    allocate.commandPool = commandPool;
+    allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    allocate.commandBufferCount = 1;
+    VkCommandBuffer command = VK_NULL_HANDLE;
+    VK_CHECK(vkAllocateCommandBuffers(context.device, &allocate, &command));
+    try {
+        record(command, kind);
+    } catch (...) {
+        vkFreeCommandBuffers(context.device, commandPool, 1, &command);
+        throw;
+    }
+    return frames[kind] = command;
+}
+
+void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector<Stage>& stages) {
+    const VkPipelineLayout layout = context.pipelines->layout();
+    for (const Stage& stage : stages) {
+        if (stage.dispatches.empty()) continue;
+        vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, context.pipelines->get(stage.kernel, stage.specialization));
+        for (std::size_t i = 0; i < stage.dispatches.size(); ++i) {
+            const Dispatch& d = stage.dispatches[i];
+            // Chunks of one stage write disjoint rows but bind the same windows: order them too.
+            if (i > 0)
+                bufferBarrier(command, stage.written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                              VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                              VK_ACCESS_SHADER_WRITE_BIT);
+            vkCmdBindDescriptorSets(command, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &d.set, 0, nullptr);
+            vkCmdPushConstants(command, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants), &d.push);
+            vkCmdDispatch(command, d.groupsX, d.groupsY, 1);
+        }
+        bufferBarrier(command, stage.written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+    }
+}
+
+void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    VK_CHECK(vkBeginCommandBuffer(command, &begin));
+    if (queries) {
+        vkCmdResetQueryPool(command, queries, 0, kQueryCount);
+        vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries, kQueryStart);
+    }
+    // Upload barrier: the host's writes (and the previous frame's device writes) before this
+    // frame's copies and dispatches.
+    memoryBarrier(command, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT |
+                      VK_ACCESS_SHADER_WRITE_BIT);
+    if (staging && (kind & (kStencils | kUploadRefined))) {
+        if (kind & kStencils) {
+            const VkBufferCopy region{0, 0, std::uint64_t(controls) * levels.front().stride * 4};
+            if (region.size) vkCmdCopyBuffer(command, controlUpload.buffer, levels.front().buffer.buffer, 1, &region);
+        }
+        if (kind & kUploadRefined) {
+            const VkBufferCopy region{0, 0, std::uint64_t(refined) * width * 4};
+            if (region.size) vkCmdCopyBuffer(command, refinedHost.buffer, refinedBuffer().buffer.buffer, 1, &region);
+        }
+        memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+    }
+    if (kind & kStencils) runStages(command, stencilStages);
+    if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryStencils);
+    if (kind & kNormals) runStages(command, normalStages);
+    if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryNormals);
+    if (staging && (kind & (kReadRefined | kReadNormals))) {
+        if (kind & kReadRefined) {
+            const VkBufferCopy region{0, 0, std::uint64_t(refined) * width * 4};
+            if (region.size) vkCmdCopyBuffer(command, refinedBuffer().buffer.buffer, refinedHost.buffer, 1, &region);
+        }
+        if (kind & kReadNormals) {
+            const VkBufferCopy region{0, 0, std::uint64_t(refined) * 3 * 4};
+            if (region.size) vkCmdCopyBuffer(command, normals.buffer.buffer, normalsHost.buffer, 1, &region);
+        }
+        memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
+    }
+    if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, kQueryEnd);
+    VK_CHECK(vkEndCommandBuffer(command));
+}
+
+void VulkanEvaluator::Impl::submit(unsigned kind) {
+    const VkCommandBuffer command = frame(kind);
+    VkSubmitInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    info.commandBufferCount = 1;
+    info.pCommandBuffers = &command;
+    {
+        std::lock_guard guard(context.lock);
+        VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
+    }
+    VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));
+    VK_CHECK(vkResetFences(context.device, 1, &fence));
+    times = {};
+    if (queries) {
+        std::uint64_t stamps[kQueryCount];
+        VK_CHECK(vkGetQueryPoolResults(context.device, queries, 0, kQueryCount, sizeof stamps, stamps, sizeof stamps[0],
+                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        const std::uint64_t mask =
+            context.timestampValidBits >= 64 ? ~0ull : (1ull << context.timestampValidBits) - 1;
+        const double msPerTick = double(context.properties.limits.timestampPeriod) * 1e-6;
+        auto span = [&](int a, int b) { return double((stamps[b] - stamps[a]) & mask) * msPerTick; };
+        times = {true, span(kQueryStart, kQueryEnd), span(kQueryStart, kQueryStencils), span(kQueryStencils, kQueryNormals)};
+    }
+}
+
+VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
+                                 const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
+                                 std::uint32_t width, const VulkanEvaluatorOptions& options)
+    : impl_(std::make_unique<Impl>(context.impl(), width)) {
+    if (width == 0 || width > kMaxWidth)
+        throw std::invalid_argument("VulkanEvaluator: width must be 1 to " + std::to_string(kMaxWidth));
+    if (form == TableForm::Factorized &&
+        (factorized.rowCount() != perLevel.refinedCount() || factorized.controlCount != perLevel.controlCount))
+        throw std::invalid_argument("VulkanEvaluator: the factorized table was not built for these levels");
+    Impl& e = *impl_;
+    VulkanContext::Impl& c = e.context;
+    e.controls = perLevel.controlCount;
+    e.refined = perLevel.refinedCount();
+    e.hasSurface = width >= 3 && surface.faceOffsets.size() > 1;
+    if (e.hasSurface && (surface.vertexCount != e.refined || surface.vertexOffsets.size() != std::size_t(e.refined) + 1))
+        throw std::invalid_argument("VulkanEvaluator: the surface table was not built for these levels");
+    const VkPhysicalDeviceLimits& limits = c.properties.limits;
+    e.limit = limits.maxStorageBufferRange;
+    if (options.maxBindingBytes) e.limit = std::min<std::uint64_t>(e.limit, options.maxBindingBytes);
+    e.alignment = std::max<std::uint64_t>(16, limits.minStorageBufferOffsetAlignment);
+    e.limit = e.limit / e.alignment * e.alignment;
+    if (e.limit < 4 * e.alignment) throw std::invalid_argument("VulkanEvaluator: maxBindingBytes is too small");
+    e.maxRows = std::min<std::uint64_t>(std::uint64_t(limits.maxComputeWorkGroupCount[0]) *
+                                            limits.maxComputeWorkGroupCount[1] * PSUB_WORKGROUP_SIZE,
+                                        1ull << 31);
+    e.staging = options.staging == Staging::Always || !c.unifiedMemory() || !hasHostVisibleDeviceMemory(c);
+
+    VkCommandPoolCreateInfo poolInfo{};
+
+    poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    poolInfo.queueFamilyIndex = c.queueFamily;
+    VK_CHECK(vkCreateCommandPool(c.device, &poolInfo, nullptr, &e.commandPool));
+    VkFenceCreateInfo fenceInfo{};
+    fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VK_CHECK(vkCreateFence(c.device, &fenceInfo, nullptr, &e.fence));
+    if (c.timestampValidBits > 0) {
+        VkQueryPoolCreateInfo queryInfo{};
+        queryInfo.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
+        queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
+        queryInfo.queryCount = kQueryCount;
+        VK_CHECK(vkCreateQueryPool(c.device, &queryInfo, nullptr, &e.queries));
+    }
+
+    // Vertex buffers: control points, each level (per-level form) or the finest (factorized).
+    const std::size_t levelCount = form == TableForm::PerLevel ? perLevel.levels.size() : 1;
+    e.levels.resize(levelCount + 1);
+    // Buffers that only kernels read are padded from 3 to 4 floats per element (one vec4 load
+    // each); the refined positions, which are read back and drawn, stay packed.
+    const std::uint32_t padded = width == 3 ? 4 : width;
+    e.makeVertexBuffer(e.levels[0], e.controls, levelCount > 0 ? padded : width, true);
+    for (std::size_t k = 1; k <= levelCount; ++k)  // none for per-level with no levels: refined == control
+            e.makeVertexBuffer(e.levels[k], form == TableForm::Factorized ? e.refined : perLevel.levels[k - 1].destinationCount,
+                               k == levelCount ? width : padded, k == levelCount);
+    if (e.staging) {
+        e.controlUpload = createBuffer(c, std::uint64_t(e.controls) * e.levels[0].stride * 4, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                       Memory::Upload, true);
+        e.refinedHost = createBuffer(c, std::uint64_t(e.refined) * width * 4,
+                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                     Memory::Readback, true);
+    }
+
+    Uploader uploader(c, !e.staging);
+    if (form == TableForm::PerLevel) e.buildPerLevel(perLevel, uploader);
+    else e.buildFactorized(factorized, uploader);
+    if (e.hasSurface) {
+        e.buildNormals(surface, uploader);
+        if (e.staging)
+            e.normalsHost = createBuffer(c, std::uint64_t(e.refined) * 3 * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                         Memory::Readback, true);
+    }
+    uploader.finish(e.commandPool, e.fence);
+    e.writeDescriptorSets();
+}
+
+VulkanEvaluator::~VulkanEvaluator() = default;
+
+std::uint32_t VulkanEvaluator::controlCount() const { return impl_->controls; }
+std::uint32_t VulkanEvaluator::refinedCount() const { return impl_->refined; }
+std::uint32_t VulkanEvaluator::width() const { return impl_->width; }
+GpuFrameTimes VulkanEvaluator::lastFrameTimes() const { return impl_->times; }
+
+std::size_t VulkanEvaluator::dispatchCount(bool withNormals) const {
+    std::size_t count = 0;
+    for (const Stage& s : impl_->stencilStages) count += s.dispatches.size();
+    if (withNormals)
+        for (const Stage& s : impl_->normalStages) count += s.dispatches.size();
+    return count;
+}
+
+std::uint64_t VulkanEvaluator::deviceBytes() const {
+    const Impl& e = *impl_;
+    std::uint64_t bytes = 0;
+    for (const Buffer& b : e.tables) bytes += b.size;
+    for (std::size_t k = 0; k < e.levels.size(); ++k)
+        if (k == 0 || e.levels[k].buffer.buffer != e.levels[0].buffer.buffer) bytes += e.levels[k].buffer.size;
+    for (const Buffer* b : {&e.faceNormals.buffer, &e.normals.buffer, &e.controlUpload, &e.refinedHost, &e.normalsHost})
+        bytes += b->size;
+    return bytes;
+}
+
+void VulkanEvaluator::evaluate(std::span<const float> control, std::span<float> refined, std::span<float> normals) {
+    Impl& e = *impl_;
+    const std::size_t controlFloats = std::size_t(e.controls) * e.width, refinedFloats = std::size_t(e.refined) * e.width;
+    assert(control.size() >= controlFloats);
+    assert(refined.empty() || refined.size() >= refinedFloats);
+    assert(normals.empty() || (e.hasSurface && normals.size() >= 3 * std::size_t(e.refined)));
+    if (!normals.empty() && !e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    float* upload = static_cast<float*>(e.staging ? e.controlUpload.mapped : e.levels.front().buffer.mapped);
+    const std::uint32_t stride = e.levels.front().stride;
+    if (stride == e.width) {
+        if (controlFloats) std::memcpy(upload, control.data(), controlFloats * sizeof(float));
+    } else {  // padded to `stride` floats per element
+        for (std::size_t v = 0; v < e.controls; ++v) {
+            std::memcpy(upload + v * stride, control.data() + v * e.width, e.width * sizeof(float));
+            for (std::uint32_t i = e.width; i < stride; ++i) upload[v * stride + i] = 0.0f;
+        }
+    }
+    const unsigned kind = kStencils | (refined.empty() ? 0u : unsigned(kReadRefined)) |
+                          (normals.empty() ? 0u : unsigned(kNormals | kReadNormals));
+    e.submit(kind);
+    if (!refined.empty() && refinedFloats)
+        std::memcpy(refined.data(), e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped,
+                    refinedFloats * sizeof(float));
+    if (!normals.empty() && e.refined)
+        std::memcpy(normals.data(), e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped,
+                    std::size_t(e.refined) * 3 * sizeof(float));
+}
+
+void VulkanEvaluator::normals(std::span<const float> refined, std::span<float> normals) {
+    Impl& e = *impl_;
+    const std::size_t refinedFloats = std::size_t(e.refined) * e.width;
+    assert(refined.size() >= refinedFloats && normals.size() >= 3 * std::size_t(e.refined));
+    if (!e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    if (refinedFloats)
+        std::memcpy(e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped, refined.data(),
+                    refinedFloats * sizeof(float));
+    e.submit(kUploadRefined | kNormals | kReadNormals);
+    if (e.refined)
+        std::memcpy(normals.data(), e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped,
+                    std::size_t(e.refined) * 3 * sizeof(float));
+}
+
+}  // namespace psub

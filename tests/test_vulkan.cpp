@@ -1,0 +1,482 @@
+// The Vulkan evaluator against the CPU evaluator, on lavapipe (or any device) with the
+// Khronos validation layer always on: every model, both table forms, widths 3 and 4, changing
+// frames, normals; bindings beyond maxStorageBufferRange; empty and zero-level meshes; a
+// missing device; evaluators created and destroyed repeatedly. Any validation message fails
+// the test that caused it. No device fails too, unless PSUB_ALLOW_NO_VULKAN=1.
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+#include "psub/vulkan_evaluator.h"
+#include "test_support.h"
+
+// Internal headers: the context's handles (to provoke a validation error on purpose) and the
+// SPIR-V reflection.
+#include "device.h"
+#include "pipelines.h"
+#include "level.spv.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unistd.h>
+
+namespace psub {
+namespace {
+
+bool noVulkanAllowed() {
+    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
+    return allow && std::string(allow) == "1";
+}
+
+// Synchronization validation too, except under AddressSanitizer: Debian's layer (1.3.239)
+// leaks with it (KhronosGroup/Vulkan-ValidationLayers#6033) and LeakSanitizer would fail the run.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
+VulkanOptions validated() {
+    VulkanOptions options;
+    options.validation = Validation::On;
+    options.synchronizationValidation = !kSanitized;
+    return options;
+}
+
+// The process's context, validation required; or why there is none.
+struct Shared {
+    std::unique_ptr<VulkanContext> context;
+    std::string error;
+};
+
+Shared& shared() {
+    static Shared s = [] {
+        Shared made;
+        try {
+            made.context = std::make_unique<VulkanContext>(validated());
+        } catch (const VulkanError& e) {
+            made.error = e.what();
+        }
+        return made;
+    }();
+    return s;
+}
+
+// Every test: a device or a failure (a skip only when PSUB_ALLOW_NO_VULKAN=1), and no
+// validation message from start to end.
+class Vulkan : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (!shared().context) {
+            if (noVulkanAllowed()) {
+                GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << shared().error;
+            }
+            FAIL() << "no Vulkan device: " << shared().error << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
+        }
+        ASSERT_TRUE(shared().context->validationEnabled());
+        messagesBefore_ = vulkanValidationMessageTotal();
+    }
+    void TearDown() override {
+        if (shared().context) {
+            EXPECT_EQ(vulkanValidationMessageTotal(), messagesBefore_)
+                << "validation messages; the last: " << shared().context->lastValidationMessage();
+        }
+    }
+    VulkanContext& context() { return *shared().context; }
+    void forgetMessages() { messagesBefore_ = vulkanValidationMessageTotal(); }
+
+private:
+    std::uint64_t messagesBefore_ = 0;
+};
+
+struct Tables {
+    test::Loaded loaded;
+    PerLevelTable perLevel;
+    FactorizedTable factorized;
+    SurfaceTable surface;
+};
+
+Tables tablesFor(const std::string& path, int steps, bool factorized = true) {
+    Tables t{test::load(path), {}, {}, {}};
+    const Refinement r = refine(t.loaded.mesh, t.loaded.checked.connectivity, {steps, Preprocess::Auto, factorized, {}});
+    t.perLevel = r.perLevel;
+    t.factorized = r.factorized;
+    t.surface = r.surface;
+    return t;
+}
+
+double diagonal(const std::vector<double>& p) {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        lo[i % 3] = std::min(lo[i % 3], p[i]);
+        hi[i % 3] = std::max(hi[i % 3], p[i]);
+    }
+    return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+}
+
+// Frame `frame` of a twisting wave over the model, `width` values per control point: xyz and
+// then linear primvars of them.
+std::vector<float> animate(const std::vector<double>& positions, std::uint32_t width, int frame) {
+    const std::size_t count = positions.size() / 3;
+    std::vector<float> control(count * width);
+    for (std::size_t v = 0; v < count; ++v) {
+        const double* p = &positions[3 * v];
+        const double y = p[1] + 0.1 * std::sin(3 * p[0] + frame);
+        for (std::uint32_t i = 0; i < width; ++i)
+            control[v * width + i] = float(i == 0 ? p[0] : i == 1 ? y : i == 2 ? p[2] : (i + 1) * p[0] - 0.5 * y + i);
+    }
+    return control;
+}
+
+// Largest |a - b| over the values; both the same size.
+double maxDifference(const std::vector<float>& a, const std::vector<float>& b) {
+    double worst = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(double(a[i]) - double(b[i])));
+    return worst;
+}
+
+void expectClose(const std::vector<float>& actual, const std::vector<float>& expected, double tolerance,
+                 const std::string& what) {
+    ASSERT_EQ(actual.size(), expected.size()) << what;
+    for (std::size_t i = 0; i < expected.size(); ++i)
+        ASSERT_NEAR(actual[i], expected[i], tolerance) << what << ": value " << i;
+}
+
+// Runs `frames` changing frames through a Vulkan evaluator and the CPU evaluator and compares
+// positions (relative 1e-5 of the model's size) and normals.
+void compareWithCpu(VulkanContext& context, const Tables& t, TableForm form, std::uint32_t width, int frames,
+                    const VulkanEvaluatorOptions& options = {}) {
+    const std::string what = std::string(form == TableForm::PerLevel ? "per-level" : "factorized") + " width " +
+                             std::to_string(width);
+    CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, form, width, 2);
+    VulkanEvaluator gpu(context, t.perLevel, t.factorized, t.surface, form, width, options);
+    ASSERT_EQ(gpu.refinedCount(), cpu.refinedCount());
+    const double tolerance = 1e-5 * std::max(1.0, diagonal(t.loaded.mesh.positions));
+    const std::size_t refinedFloats = std::size_t(cpu.refinedCount()) * width;
+    std::vector<float> expected(refinedFloats), actual(refinedFloats), expectedNormals(3 * std::size_t(cpu.refinedCount())),
+        actualNormals(expectedNormals.size());
+    for (int frame = 0; frame < frames; ++frame) {
+        const std::vector<float> control = animate(t.loaded.mesh.positions, width, frame);
+        cpu.evaluate(control, expected);
+        cpu.normals(expected, expectedNormals);
+        gpu.evaluate(control, actual, actualNormals);
+        expectClose(actual, expected, tolerance, what + " frame " + std::to_string(frame));
+        expectClose(actualNormals, expectedNormals, 1e-5, what + " normals, frame " + std::to_string(frame));
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+
+class VulkanModel : public Vulkan, public ::testing::WithParamInterface<std::string> {};
+
+TEST_P(VulkanModel, EqualsTheCpuEvaluatorOverChangingFramesBothFormsWidths3And4) {
+    for (int steps : {1, 3})
+        for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
+            for (std::uint32_t width : {3u, 4u}) {
+                SCOPED_TRACE(GetParam() + " steps " + std::to_string(steps));
+                compareWithCpu(context(), tablesFor(GetParam(), steps), form, width, 3);
+            }
+}
+
+std::string modelName(const ::testing::TestParamInfo<std::string>& info) {
+    std::string name = info.param.substr(info.param.find_last_of('/') + 1);
+    name = name.substr(0, name.find('.'));
+    for (char& ch : name)
+        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+    return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryModel, VulkanModel, ::testing::ValuesIn(test::allValidModels()), modelName);
+
+TEST_F(Vulkan, DeeperLevelsOfTheBundledModelsMatch) {
+    for (const auto& [model, steps] : {std::pair{"cow.obj", 4}, std::pair{"spot_control_mesh.obj", 6}}) {
+        SCOPED_TRACE(model);
+        const Tables t = tablesFor(test::dataPath(model), steps);
+        for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) compareWithCpu(context(), t, form, 3, 2);
+    }
+}
+
+TEST_F(Vulkan, PerLevelResultsAreBitIdenticalToTheCpu) {
+    // Same operations in the same order, no fused multiply-adds: not just close, equal.
+    const Tables t = tablesFor(test::dataPath("cow.obj"), 3);
+    CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3, 2);
+    VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3);
+    const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 1);
+    std::vector<float> expected(3 * std::size_t(cpu.refinedCount())), actual(expected.size());
+    cpu.evaluate(control, expected);
+    gpu.evaluate(control, actual);
+    EXPECT_EQ(maxDifference(actual, expected), 0.0);
+}
+
+TEST_F(Vulkan, NormalsOfGivenPositionsEqualTheCpuNormals) {
+    const Tables t = tablesFor(test::dataPath("spot_control_mesh.obj"), 3);
+    for (std::uint32_t width : {3u, 4u}) {
+        CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, TableForm::PerLevel, width, 2);
+        VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, width);
+        std::vector<float> refined(std::size_t(cpu.refinedCount()) * width), expected(3 * std::size_t(cpu.refinedCount())),
+            actual(expected.size());
+        cpu.evaluate(animate(t.loaded.mesh.positions, width, 2), refined);
+        cpu.normals(refined, expected);
+        gpu.normals(refined, actual);
+        expectClose(actual, expected, 1e-5, "normals");
+        // Results left on the device, then normals only.
+        std::vector<float> fromDevice(expected.size());
+        gpu.evaluate(animate(t.loaded.mesh.positions, width, 2), {}, fromDevice);
+        expectClose(fromDevice, expected, 1e-5, "normals of device-resident positions");
+    }
+}
+
+TEST_F(Vulkan, FlatGridNormalsPointUp) {
+    const Tables t = tablesFor(test::dataPath("grid4x4.obj"), 3);
+    VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::Factorized);
+    const std::vector<float> control(t.loaded.mesh.positions.begin(), t.loaded.mesh.positions.end());
+    std::vector<float> refined(3 * std::size_t(gpu.refinedCount())), normals(refined.size());
+    gpu.evaluate(control, refined, normals);
+    for (std::size_t v = 0; v < normals.size() / 3; ++v) {
+        EXPECT_FLOAT_EQ(normals[3 * v + 2], 1.0f) << v;
+        EXPECT_FLOAT_EQ(normals[3 * v], 0.0f) << v;
+    }
+}
+
+TEST_F(Vulkan, StagingCopiesGiveTheSameResults) {
+    // The discrete-GPU path (staging buffers and copies) run on whatever device is here.
+    const Tables t = tablesFor(test::dataPath("cow.obj"), 2);
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
+        compareWithCpu(context(), t, form, 4, 2, {Staging::Always, 0});
+}
+
+TEST_F(Vulkan, SmallBindingLimitsSplitDispatchesAndBindWindowsWithTheSameResults) {
+    // Bindings capped far below the device's limit: every table is split into chunks and the
+    // vertex buffers are bound as several windows, on a mesh small enough to check quickly.
+    const Tables t = tablesFor(test::dataPath("cow.obj"), 2);
+    const std::uint64_t largest = std::uint64_t(t.perLevel.refinedCount()) * 4 * 4;  // width 4, floats
+    const std::uint64_t cap = largest / 3 + 1024;                                  // three windows
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
+        for (std::uint32_t width : {3u, 4u})
+            for (Staging staging : {Staging::Auto, Staging::Always}) {
+                SCOPED_TRACE("cap " + std::to_string(cap));
+                compareWithCpu(context(), t, form, width, 2, {staging, cap});
+                VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, form, width, {staging, cap});
+                EXPECT_GT(gpu.dispatchCount(), form == TableForm::PerLevel ? t.perLevel.levels.size() : 1u);
+            }
+    // Tiny bindings: many chunks per level.
+    const Tables small = tablesFor(test::dataPath("spot_control_mesh.obj"), 2);
+    compareWithCpu(context(), small, TableForm::PerLevel, 3, 1, {Staging::Auto, 8192});
+    compareWithCpu(context(), small, TableForm::Factorized, 3, 1, {Staging::Auto, 8192});
+    VulkanEvaluator tiny(context(), small.perLevel, small.factorized, small.surface, TableForm::PerLevel, 3,
+                         {Staging::Auto, 8192});
+    EXPECT_GE(tiny.dispatchCount(true), 3 * small.perLevel.levels.size());
+}
+
+TEST_F(Vulkan, TablesAndVertexBuffersBeyond128MiBStillMatch) {
+    // spot at 14 P-S steps: 6.0M refined vertices. The per-level table's indices (about
+    // 300 MiB) exceed lavapipe's maxStorageBufferRange of 128 MiB, so its last levels are split
+    // into chunks; at width 6 the refined vertex buffer (137 MiB) does too, so it is bound as
+    // two windows.
+    const auto start = std::chrono::steady_clock::now();
+    const Tables t = tablesFor(test::dataPath("spot_control_mesh.obj"), 14, false);
+    const std::uint32_t width = 6;
+    ASSERT_GT(4 * t.perLevel.indices.size(), std::uint64_t(128) << 20);
+    ASSERT_GT(std::uint64_t(t.perLevel.refinedCount()) * width * 4, std::uint64_t(128) << 20);
+    CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, TableForm::PerLevel, width, 0);
+    VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, width);
+    EXPECT_GT(gpu.dispatchCount(), t.perLevel.levels.size());  // the last levels are split
+    const std::vector<float> control = animate(t.loaded.mesh.positions, width, 1);
+    std::vector<float> expected(std::size_t(cpu.refinedCount()) * width), actual(expected.size()),
+        expectedNormals(3 * std::size_t(cpu.refinedCount())), actualNormals(expectedNormals.size());
+    cpu.evaluate(control, expected);
+    gpu.evaluate(control, actual, actualNormals);
+    const double firstFrameMs = gpu.lastFrameTimes().totalMs;
+    EXPECT_LE(maxDifference(actual, expected), 1e-5 * diagonal(t.loaded.mesh.positions));
+    // Normals of faces this small are ill-conditioned in float: compare the normal passes on
+    // the same positions.
+    cpu.normals(expected, expectedNormals);
+    gpu.normals(expected, actualNormals);
+    EXPECT_LE(maxDifference(actualNormals, expectedNormals), 1e-5);
+    gpu.evaluate(control, {});
+    std::printf("spot, 14 steps, width %u: %u vertices, %.0f MiB on the device, %zu dispatches with normals, "
+                "GPU frame %.0f ms (first, with normals), %.0f ms (stencils only); test %.1f s\n",
+                width, gpu.refinedCount(), double(gpu.deviceBytes()) / 1048576, gpu.dispatchCount(true), firstFrameMs,
+                gpu.lastFrameTimes().totalMs,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+}
+
+TEST_F(Vulkan, FactorizedTableBeyond128MiBStillMatches) {
+    // spot at 12 steps: 1.5M rows of about 40 entries, 240 MiB of indices (and as many of
+    // weights): more than one binding of lavapipe's 128 MiB, so the rows are split.
+    const Tables t = tablesFor(test::dataPath("spot_control_mesh.obj"), 12);
+    ASSERT_GT(4 * t.factorized.indices.size(), std::uint64_t(128) << 20);
+    CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, TableForm::Factorized, 3, 0);
+    VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::Factorized, 3);
+    EXPECT_GT(gpu.dispatchCount(), 1u);
+    const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 2);
+    std::vector<float> expected(3 * std::size_t(cpu.refinedCount())), actual(expected.size());
+    cpu.evaluate(control, expected);
+    gpu.evaluate(control, actual);
+    EXPECT_LE(maxDifference(actual, expected), 1e-5 * diagonal(t.loaded.mesh.positions));
+}
+
+TEST_F(Vulkan, EmptyTablesAndZeroLevels) {
+    {  // nothing at all
+        const PerLevelTable perLevel;
+        const FactorizedTable factorized;
+        const SurfaceTable surface;
+        for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
+            VulkanEvaluator gpu(context(), perLevel, factorized, surface, form);
+            EXPECT_EQ(gpu.refinedCount(), 0u);
+            EXPECT_EQ(gpu.dispatchCount(true), 0u);
+            gpu.evaluate({}, {});
+        }
+    }
+    // A quad mesh refined 0 steps: the control points are the refined points.
+    const Tables t = tablesFor(test::dataPath("cube.obj"), 0);
+    ASSERT_TRUE(t.perLevel.levels.empty());
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
+        for (Staging staging : {Staging::Auto, Staging::Always}) {
+            VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, form, 3, {staging, 0});
+            const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 0);
+            std::vector<float> refined(control.size()), normals(control.size());
+            gpu.evaluate(control, refined, normals);
+            EXPECT_EQ(refined, control);
+            CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, form, 3, 1);
+            std::vector<float> expectedNormals(normals.size());
+            cpu.normals(control, expectedNormals);
+            expectClose(normals, expectedNormals, 1e-6, "cube normals");
+        }
+}
+
+TEST_F(Vulkan, ADeviceThatIsNotThereIsAClearError) {
+    struct RestoreEnv {
+        std::optional<std::string> saved;
+        RestoreEnv() {
+            if (const char* v = std::getenv("PSUB_VULKAN_DEVICE")) saved = v;
+        }
+        ~RestoreEnv() {
+            if (saved) ::setenv("PSUB_VULKAN_DEVICE", saved->c_str(), 1);
+            else ::unsetenv("PSUB_VULKAN_DEVICE");
+        }
+    } restore;
+    for (const char* selector : {"no-such-gpu-9000", "99"}) {
+        ::setenv("PSUB_VULKAN_DEVICE", selector, 1);
+        try {
+            VulkanContext missing(VulkanOptions{Validation::Off, "", false, false});
+            ADD_FAILURE() << "PSUB_VULKAN_DEVICE=" << selector << " found " << missing.deviceName();
+        } catch (const VulkanError& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find(std::string("PSUB_VULKAN_DEVICE=\"") + selector + "\" matches no Vulkan device"),
+                      std::string::npos) << message;
+            EXPECT_NE(message.find("0: "), std::string::npos) << "lists the devices: " << message;
+        }
+    }
+    ::unsetenv("PSUB_VULKAN_DEVICE");
+    EXPECT_THROW(VulkanContext(VulkanOptions{Validation::Off, "not-a-device", false, false}), VulkanError);
+    // The device that is here, by index and by name, is found.
+    VulkanContext byIndex(VulkanOptions{Validation::Off, "0", false, false});
+    const std::string name = byIndex.deviceName();
+    VulkanContext byName(VulkanOptions{Validation::Off, name.substr(0, 4), false, false});
+    EXPECT_FALSE(listVulkanDevices().empty());
+}
+
+long residentKiB() {
+    std::ifstream statm("/proc/self/statm");
+    long pages = 0, resident = 0;
+    statm >> pages >> resident;
+    return resident * (::sysconf(_SC_PAGESIZE) / 1024);
+}
+
+TEST_F(Vulkan, CreatingAndDestroyingEvaluatorsRepeatedlyLeaksNothing) {
+    const Tables t = tablesFor(test::dataPath("cow.obj"), 2);
+    const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 0);
+    std::vector<float> refined(3 * std::size_t(t.perLevel.refinedCount())), normals(refined.size());
+    {
+        // Its own context, destroyed at the end: the validation layer reports any object left
+        // alive when the device is destroyed, and the process-wide count catches it.
+        VulkanContext own(validated());
+        long afterWarmUp = 0;
+        for (int i = 0; i < 50; ++i) {
+            if (i == 5) afterWarmUp = residentKiB();
+            VulkanEvaluator gpu(own, t.perLevel, t.factorized, t.surface,
+                                i % 2 ? TableForm::Factorized : TableForm::PerLevel, 3, {i % 3 ? Staging::Auto : Staging::Always, 0});
+            gpu.evaluate(control, refined, normals);
+        }
+        // (Under AddressSanitizer freed memory is quarantined, and LeakSanitizer checks instead.)
+        if (!kSanitized) {
+            EXPECT_LT(residentKiB() - afterWarmUp, 16 * 1024) << "resident memory grew by KiB";
+        }
+    }
+}
+
+TEST_F(Vulkan, AValidationErrorIsCounted) {
+    // The debug messenger really counts: a buffer of size 0 is invalid usage.
+    VulkanContext::Impl& c = context().impl();
+    const std::uint64_t before = vulkanValidationMessageTotal();
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = 0;
+    info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    ::testing::internal::CaptureStderr();
+    const VkResult result = vkCreateBuffer(c.device, &info, nullptr, &buffer);
+    const std::string printed = ::testing::internal::GetCapturedStderr();
+    if (result == VK_SUCCESS && buffer) vkDestroyBuffer(c.device, buffer, nullptr);
+    EXPECT_GT(vulkanValidationMessageTotal(), before);
+    EXPECT_GT(context().validationMessageCount(), 0u);
+    EXPECT_NE(printed.find("psub: Vulkan validation error"), std::string::npos) << printed;
+    forgetMessages();
+}
+
+TEST_F(Vulkan, TimestampsGiveTheGpuTimeOfAFrame) {
+    const Tables t = tablesFor(test::dataPath("cow.obj"), 2);
+    VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel);
+    const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 0);
+    std::vector<float> normals(3 * std::size_t(gpu.refinedCount()));
+    gpu.evaluate(control, {}, normals);
+    const GpuFrameTimes times = gpu.lastFrameTimes();
+    ASSERT_TRUE(times.valid);
+    EXPECT_GT(times.totalMs, 0);
+    EXPECT_GT(times.levelsMs, 0);
+    EXPECT_GT(times.normalsMs, 0);
+    EXPECT_LE(times.levelsMs + times.normalsMs, times.totalMs * 1.0001);
+}
+
+TEST_F(Vulkan, InconsistentTablesAndWidthsAreRejected) {
+    const Tables t = tablesFor(test::dataPath("cube.obj"), 2, false);
+    EXPECT_THROW(VulkanEvaluator(context(), t.perLevel, t.factorized, t.surface, TableForm::Factorized),
+                 std::invalid_argument);
+    EXPECT_THROW(VulkanEvaluator(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 0),
+                 std::invalid_argument);
+    EXPECT_THROW(VulkanEvaluator(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 17),
+                 std::invalid_argument);
+}
+
+TEST(VulkanShaders, EmbeddedSpirvMatchesTheSharedConfig) {
+    const vulkan::ShaderInfo info = vulkan::reflectSpirv(psub_spirv_level);
+    EXPECT_EQ(info.localSize[0], unsigned(PSUB_WORKGROUP_SIZE));
+    EXPECT_EQ(info.localSize[1], 1u);
+    EXPECT_EQ(info.pushConstantBytes, sizeof(vulkan::PushConstants));
+    // Every binding of the layout (some twice: float and vec4 views of one buffer), no other.
+    std::vector<std::uint32_t> bindings = info.bindings;
+    std::sort(bindings.begin(), bindings.end());
+    bindings.erase(std::unique(bindings.begin(), bindings.end()), bindings.end());
+    ASSERT_EQ(bindings.size(), std::size_t(PSUB_BINDING_COUNT));
+    EXPECT_EQ(bindings.back(), std::uint32_t(PSUB_BINDING_COUNT - 1));
+    const std::uint32_t garbage[6] = {1, 2, 3, 4, 5, 6};
+    EXPECT_THROW(vulkan::reflectSpirv(garbage), VulkanError);
+}
+
+}  // namespace
+}  // namespace psub
