@@ -5,9 +5,13 @@
 
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
+#if PSUB_HAVE_VULKAN
+#include "psub/vulkan_evaluator.h"
+#endif
 
 #include <cmath>
 #include <cstdlib>
+#include <memory>
 #include <filesystem>
 #include <numbers>
 
@@ -81,6 +85,72 @@ int torusSize(const std::string& name) {
 
 // PSub at `levels` P-S steps: refine() with both tables, then per-level and factorized
 // evaluators on one thread and on all. Returns the refined shape.
+#if PSUB_HAVE_VULKAN
+// The Vulkan evaluator on the same tables (lavapipe here: the same 2 cores), timed with the
+// results left on the device, then read back once and checked against the CPU's.
+void benchVulkan(const Model& model, int levels, int k, const Refinement& refinement,
+                 const std::vector<TableForm>& forms, const Animation& animation,
+                 const std::vector<float>& reference, const Shape& shape, const FrameSettings& frames,
+                 Progress& progress, const std::string& label, std::vector<Record>& records,
+                 std::vector<std::string>& warnings) {
+    static std::unique_ptr<VulkanContext> context;
+    static std::string unavailable;
+    if (!context && unavailable.empty()) {
+        try {
+            context = std::make_unique<VulkanContext>(VulkanOptions{Validation::Off, {}, false, false});
+        } catch (const std::exception& e) {
+            unavailable = e.what();
+            warnings.push_back("no Vulkan rows: " + unavailable);
+        }
+    }
+    if (!context) return;
+    const std::size_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
+    std::vector<float> control(3 * controlCount), out(3 * refinedCount);
+    for (TableForm form : forms) {
+        const bool isPerLevel = form == TableForm::PerLevel;
+        Record r;
+        r.model = model.name;
+        r.scheme = "ps";
+        r.levels = levels;
+        r.ccLevel = k;
+        r.refinedFaces = refinement.surface.faceOffsets.size() - 1;
+        r.refinedVertices = refinedCount;
+        r.controlVertices = controlCount;
+        r.evaluator = isPerLevel ? "psub-vulkan-perlevel" : "psub-vulkan-factorized";
+        r.table = isPerLevel ? "per-level" : "factorized";
+        r.threads = 0;  // the driver's own threads
+        r.layoutFloats = 3;
+        r.topologyMs = refinement.topologyMs;
+        r.tableMs = refinement.perLevelMs + (isPerLevel ? 0 : refinement.factorizedMs);
+        r.buildMs = r.topologyMs + r.tableMs;
+        r.tableBytes = isPerLevel ? refinement.perLevel.bytes() : refinement.factorized.bytes();
+        r.tableEntries = isPerLevel ? refinement.perLevel.indices.size() : refinement.factorized.indices.size();
+        std::uint64_t levelVertices = 0;
+        for (const StencilLevel& level : refinement.perLevel.levels)
+            levelVertices += std::uint64_t(level.sourceCount) + level.destinationCount;
+        r.bytesPerFrame = r.tableBytes + 12 * (isPerLevel ? levelVertices : controlCount + refinedCount);
+        progress.show(label + ": " + r.evaluator + " (" + context->deviceName() + ")");
+        try {
+            VulkanEvaluator evaluator(*context, refinement.perLevel, refinement.factorized, refinement.surface, form, 3);
+            r.timing = timeFrames(
+                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+                [&] { evaluator.evaluate(control, {}); });
+            animation.writeRest(control.data(), 3);
+            evaluator.evaluate(control, out);
+        } catch (const std::exception& e) {
+            warnings.push_back(model.name + " " + r.evaluator + ": " + e.what());
+            continue;
+        }
+        r.maxDiff = maxDifference(out.data(), 3, reference.data(), 3, refinedCount) / shape.diagonal;
+        r.shape = shape;
+        if (!(r.maxDiff <= 1e-5))
+            warnings.push_back(model.name + " " + r.evaluator + " differs from psub-cpu-perlevel by " +
+                               std::to_string(r.maxDiff) + " of the bounding-box diagonal");
+        records.push_back(r);
+    }
+}
+#endif
+
 Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const FrameSettings& frames,
               int allThreads, Progress& progress, const std::string& label, std::vector<Record>& records,
               std::vector<std::string>& warnings) {
@@ -163,6 +233,10 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
                                    std::to_string(r.maxDiff) + " of the bounding-box diagonal");
             records.push_back(r);
         }
+#if PSUB_HAVE_VULKAN
+    benchVulkan(model, levels, k, refinement, forms, animation, reference, shape, frames, progress, label, records,
+                warnings);
+#endif
     return shape;
 }
 

@@ -1,0 +1,79 @@
+// Large-mesh run (a benchmark, not a test): refines a generated N x N quad torus until it has
+// at least TARGET faces, evaluates one frame, and reports time, peak memory and bytes per
+// refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32 entries.
+//   psub_large_mesh [N=512] [TARGET_FACES=50000000]
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace {
+
+psub::Mesh torus(psub::Index n) {
+    psub::Mesh mesh;
+    mesh.faces.vertexCount = n * n;
+    for (psub::Index i = 0; i < n; ++i)
+        for (psub::Index j = 0; j < n; ++j) {
+            const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
+            mesh.positions.insert(mesh.positions.end(),
+                                  {(2 + std::cos(v)) * std::cos(u), (2 + std::cos(v)) * std::sin(u), std::sin(v)});
+            const psub::Index quad[4] = {i * n + j, ((i + 1) % n) * n + j, ((i + 1) % n) * n + (j + 1) % n,
+                                         i * n + (j + 1) % n};
+            mesh.faces.addFace(quad);
+        }
+    return mesh;
+}
+
+double peakGiB() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return double(usage.ru_maxrss) / (1024.0 * 1024.0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const psub::Index n = argc > 1 ? psub::Index(std::stoul(argv[1])) : 512;
+    const double target = argc > 2 ? std::stod(argv[2]) : 50e6;
+    using Clock = std::chrono::steady_clock;
+    const psub::Mesh mesh = torus(n);
+    const psub::CheckedMesh checked = psub::checkMesh(mesh);
+    int levels = 0;
+    while (double(n) * n * std::pow(2.0, levels) < target) ++levels;
+    std::printf("torus %u x %u (%u faces), %d P-S levels\n", n, n, n * n, levels);
+    auto start = Clock::now();
+    psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
+    options.onLevel = [](int level, double seconds) {
+        std::fprintf(stderr, "level %d: topology %.2f s, peak %.2f GiB\n", level, seconds, peakGiB());
+    };
+    const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
+    const double buildSeconds = std::chrono::duration<double>(Clock::now() - start).count();
+    const double faces = double(r.surface.faceOffsets.size() - 1);
+    std::printf("refined: %.0f faces, %u vertices; topology %.2f s, tables %.2f s, total %.2f s; "
+                "table %.2f GiB (%llu indices)\n",
+                faces, r.perLevel.refinedCount(), r.topologyMs / 1e3, r.perLevelMs / 1e3, buildSeconds,
+                double(r.perLevel.bytes()) / (1u << 30), (unsigned long long)r.perLevel.indices.size());
+    psub::CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel);
+    std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
+    std::vector<float> refined(3 * std::size_t(evaluator.refinedCount()));
+    for (int frame = 0; frame < 3; ++frame) {
+        start = Clock::now();
+        evaluator.evaluate(control, refined);
+        std::printf("frame %d: %.1f ms (%d threads)\n", frame,
+                    std::chrono::duration<double, std::milli>(Clock::now() - start).count(), evaluator.threads());
+    }
+    // Sanity: every refined point stays within the torus's bounding box.
+    for (float value : refined)
+        if (!(std::abs(value) <= 3.0f)) {
+            std::printf("FAILED: refined value %g out of range\n", double(value));
+            return 1;
+        }
+    std::printf("peak memory %.2f GiB = %.0f bytes per refined face\n", peakGiB(),
+                peakGiB() * (1u << 30) / faces);
+    return 0;
+}
