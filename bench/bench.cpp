@@ -85,6 +85,35 @@ int torusSize(const std::string& name) {
 
 // PSub at `levels` P-S steps: refine() with both tables, then per-level and factorized
 // evaluators on one thread and on all. Returns the refined shape.
+// The fields every PSub record shares: model, size, table form, build times, bytes per frame
+// (table + each level's source and destination vertices, 12 B each; factorized: control + finest).
+Record psubRecord(const Model& model, int levels, int k, const Refinement& refinement, TableForm form,
+                  const std::string& evaluator, double topologyMs, double perLevelMs, double factorizedMs) {
+    const bool isPerLevel = form == TableForm::PerLevel;
+    const std::uint64_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
+    std::uint64_t levelVertices = 0;
+    for (const StencilLevel& level : refinement.perLevel.levels)
+        levelVertices += std::uint64_t(level.sourceCount) + level.destinationCount;
+    Record r;
+    r.model = model.name;
+    r.scheme = "ps";
+    r.levels = levels;
+    r.ccLevel = k;
+    r.refinedFaces = refinement.surface.faceOffsets.size() - 1;
+    r.refinedVertices = refinedCount;
+    r.controlVertices = controlCount;
+    r.evaluator = evaluator + (isPerLevel ? "-perlevel" : "-factorized");
+    r.table = isPerLevel ? "per-level" : "factorized";
+    r.layoutFloats = 3;
+    r.topologyMs = topologyMs;
+    r.tableMs = perLevelMs + (isPerLevel ? 0 : factorizedMs);
+    r.buildMs = r.topologyMs + r.tableMs;
+    r.tableBytes = isPerLevel ? refinement.perLevel.bytes() : refinement.factorized.bytes();
+    r.tableEntries = isPerLevel ? refinement.perLevel.indices.size() : refinement.factorized.indices.size();
+    r.bytesPerFrame = r.tableBytes + 12 * (isPerLevel ? levelVertices : controlCount + refinedCount);
+    return r;
+}
+
 #if PSUB_HAVE_VULKAN
 // The Vulkan evaluator on the same tables (lavapipe here: the same 2 cores), timed with the
 // results left on the device, then read back once and checked against the CPU's.
@@ -107,28 +136,9 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
     const std::size_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
     std::vector<float> control(3 * controlCount), out(3 * refinedCount);
     for (TableForm form : forms) {
-        const bool isPerLevel = form == TableForm::PerLevel;
-        Record r;
-        r.model = model.name;
-        r.scheme = "ps";
-        r.levels = levels;
-        r.ccLevel = k;
-        r.refinedFaces = refinement.surface.faceOffsets.size() - 1;
-        r.refinedVertices = refinedCount;
-        r.controlVertices = controlCount;
-        r.evaluator = isPerLevel ? "psub-vulkan-perlevel" : "psub-vulkan-factorized";
-        r.table = isPerLevel ? "per-level" : "factorized";
+        Record r = psubRecord(model, levels, k, refinement, form, "psub-vulkan", refinement.topologyMs,
+                              refinement.perLevelMs, refinement.factorizedMs);
         r.threads = 0;  // the driver's own threads
-        r.layoutFloats = 3;
-        r.topologyMs = refinement.topologyMs;
-        r.tableMs = refinement.perLevelMs + (isPerLevel ? 0 : refinement.factorizedMs);
-        r.buildMs = r.topologyMs + r.tableMs;
-        r.tableBytes = isPerLevel ? refinement.perLevel.bytes() : refinement.factorized.bytes();
-        r.tableEntries = isPerLevel ? refinement.perLevel.indices.size() : refinement.factorized.indices.size();
-        std::uint64_t levelVertices = 0;
-        for (const StencilLevel& level : refinement.perLevel.levels)
-            levelVertices += std::uint64_t(level.sourceCount) + level.destinationCount;
-        r.bytesPerFrame = r.tableBytes + 12 * (isPerLevel ? levelVertices : controlCount + refinedCount);
         progress.show(label + ": " + r.evaluator + " (" + context->deviceName() + ")");
         try {
             VulkanEvaluator evaluator(*context, refinement.perLevel, refinement.factorized, refinement.surface, form, 3);
@@ -175,12 +185,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     const PerLevelTable& perLevel = refinement.perLevel;
     const FactorizedTable& factorized = refinement.factorized;
     const std::size_t controlCount = perLevel.controlCount, refinedCount = perLevel.refinedCount();
-    const std::uint64_t faces = refinement.surface.faceOffsets.size() - 1;
     const Animation animation(model.mesh.positions, boxDiagonal(model.mesh.positions));
-
-    std::uint64_t levelVertices = 0;  // each level's source + destination vertices
-    for (const StencilLevel& level : perLevel.levels)
-        levelVertices += std::uint64_t(level.sourceCount) + level.destinationCount;
 
     std::vector<float> control(3 * controlCount), out(3 * refinedCount), reference;
     Shape shape;
@@ -190,27 +195,10 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     if (withFactorized) forms.push_back(TableForm::Factorized);
     for (TableForm form : forms)
         for (int threads : threadCounts) {
-            const bool isPerLevel = form == TableForm::PerLevel;
-            Record r;
-            r.model = model.name;
-            r.scheme = "ps";
-            r.levels = levels;
-            r.ccLevel = k;
-            r.refinedFaces = faces;
-            r.refinedVertices = refinedCount;
-            r.controlVertices = controlCount;
-            r.evaluator = isPerLevel ? "psub-cpu-perlevel" : "psub-cpu-factorized";
-            r.table = isPerLevel ? "per-level" : "factorized";
+            Record r = psubRecord(model, levels, k, refinement, form, "psub-cpu", topologyMs, perLevelMs,
+                                  factorizedMs);
             r.threads = threads;
-            r.layoutFloats = 3;
-            r.topologyMs = topologyMs;
-            r.tableMs = perLevelMs + (isPerLevel ? 0 : factorizedMs);
             r.buildRepetitions = repetitions;
-            r.buildMs = r.topologyMs + r.tableMs;
-            r.tableBytes = isPerLevel ? perLevel.bytes() : factorized.bytes();
-            r.tableEntries = isPerLevel ? perLevel.indices.size() : factorized.indices.size();
-            r.bytesPerFrame = r.tableBytes + 12 * (isPerLevel ? levelVertices : controlCount + refinedCount);
-
             progress.show(label + ": " + r.evaluator + " " + std::to_string(threads) + " thr");
             CpuEvaluator<float> evaluator(perLevel, factorized, refinement.surface, form, 3, threads);
             r.timing = timeFrames(
