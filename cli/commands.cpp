@@ -303,6 +303,14 @@ void printShapes(const Loaded& loaded, const Hierarchy& hierarchy,
                 "(SPEC.md, \"The paper's claims\").\n");
 }
 
+// Frame `frame` of the demo's animation: a wave along x lifts the rest pose in y.
+void writeWaveFrame(const std::vector<double>& rest, int frame, std::vector<float>& control) {
+    for (std::size_t v = 0; v < rest.size() / 3; ++v)
+        for (int axis = 0; axis < 3; ++axis)
+            control[3 * v + axis] =
+                float(rest[3 * v + axis] + (axis == 1 ? 0.05 * std::sin(rest[3 * v] + 0.3 * frame) : 0));
+}
+
 // The engine's real path: tables built once, then frames of animated control points.
 // The demo's Vulkan line: the per-level tables on the Vulkan device, the same frames as the
 // CPU lines, and the largest difference to the CPU evaluator's result; or why it is not there.
@@ -315,10 +323,7 @@ void printVulkanFrames(const Refinement& r, const Loaded& loaded) {
             cpuOut(out.size());
         std::vector<double> frameMs, gpuMs;
         for (int frame = 0; frame < 25; ++frame) {
-            for (std::size_t v = 0; v < control.size() / 3; ++v)
-                for (int axis = 0; axis < 3; ++axis)
-                    control[3 * v + axis] = float(loaded.mesh.positions[3 * v + axis] +
-                                                  (axis == 1 ? 0.05 * std::sin(loaded.mesh.positions[3 * v] + 0.3 * frame) : 0));
+            writeWaveFrame(loaded.mesh.positions, frame, control);
             const auto start = Clock::now();
             gpu.evaluate(control, out);
             frameMs.push_back(msSince(start));
@@ -360,10 +365,7 @@ void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<do
         CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, form);
         std::vector<double> frameMs;
         for (int frame = 0; frame < 25; ++frame) {
-            for (std::size_t v = 0; v < control.size() / 3; ++v)
-                for (int axis = 0; axis < 3; ++axis)
-                    control[3 * v + axis] = float(loaded.mesh.positions[3 * v + axis] +
-                                                  (axis == 1 ? 0.05 * std::sin(loaded.mesh.positions[3 * v] + 0.3 * frame) : 0));
+            writeWaveFrame(loaded.mesh.positions, frame, control);
             const auto start = Clock::now();
             evaluator.evaluate(control, out);
             frameMs.push_back(msSince(start));
