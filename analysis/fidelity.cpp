@@ -261,7 +261,7 @@ double Fidelity::meanDistance() const {
 }
 
 Fidelity compareWithCatmark(const Mesh& mesh, const Connectivity& connectivity, int psSteps, Rules rules,
-                            int samplesPerEdge) {
+                            int samplesPerEdge, Boundary boundary) {
     if (psSteps < 0 || psSteps % 2 != 0 || samplesPerEdge < 0)
         throw std::invalid_argument("compareWithCatmark: psSteps even and >= 0, samplesPerEdge >= 0");
     Fidelity out;
@@ -272,6 +272,7 @@ Fidelity compareWithCatmark(const Mesh& mesh, const Connectivity& connectivity, 
     RefineOptions options;
     options.levels = psSteps;
     options.rules = rules;
+    options.boundary = boundary;
     const Refinement refinement = refine(mesh, connectivity, options);
     CpuEvaluator<double> evaluator(refinement.perLevel, refinement.factorized, refinement.surface, TableForm::PerLevel);
     std::vector<double> ps(3 * std::size_t(evaluator.refinedCount()));

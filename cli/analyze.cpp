@@ -69,14 +69,63 @@ std::string jsonRecord(const ValenceReport& r) {
 
 const char* yesNo(bool value) { return value ? "yes" : "no"; }
 
-Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules, int samples) {
+Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules, int samples,
+                       Boundary boundary = Boundary::Paper) {
     // Refuse what would not fit comfortably: the refined P-S mesh's face count in closed form.
     const bool preprocess = needsPreprocessing(mesh.faces, connectivity, Preprocess::Auto, mesh.source);
-    const Counts finest = countsAfterSteps(countMesh(mesh.faces, connectivity), levels + (preprocess ? 1 : 0));
+    const Counts finest = countsAfterSteps(countMesh(mesh.faces, connectivity), levels + (preprocess ? 1 : 0),
+                                           boundary, preprocess);
     if (finest.faces > 20'000'000)
         throw InputError(mesh.source.path + ": " + std::to_string(levels) + " P-S steps would give " +
                          std::to_string(finest.faces) + " faces; psub compare stops at 20 million (use fewer --levels)");
-    return compareWithCatmark(mesh, connectivity, levels, rules, samples);
+    return compareWithCatmark(mesh, connectivity, levels, rules, samples, boundary);
+}
+
+Mesh loadWithWarnings(const std::string& path, CheckedMesh& checked) {
+    std::vector<std::string> warnings;
+    Mesh mesh = readObj(path, &warnings);
+    checked = checkMesh(mesh);
+    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    return mesh;
+}
+
+// psub analyze --boundary-aspect MODEL: the boundary triangles per level, paper beside smooth.
+int runBoundaryAspect(const AnalyzeOptions& options) {
+    CheckedMesh checked;
+    const Mesh mesh = loadWithWarnings(options.boundaryModel, checked);
+    if (checked.connectivity.boundaryEdgeCount == 0)
+        throw InputError(options.boundaryModel + ": the mesh has no boundary edge, so no boundary triangles");
+    const bool preprocess = needsPreprocessing(mesh.faces, checked.connectivity, Preprocess::Auto, mesh.source);
+    const Counts finest = countsAfterSteps(countMesh(mesh.faces, checked.connectivity),
+                                           options.boundaryLevels + (preprocess ? 1 : 0), Boundary::Smooth, preprocess);
+    if (finest.faces > 4'000'000)
+        throw InputError(options.boundaryModel + ": " + std::to_string(options.boundaryLevels) + " steps would give " +
+                         std::to_string(finest.faces) + " faces; this report keeps every level and stops at 4 million");
+    const auto paper = boundaryAspectByLevel(mesh, checked.connectivity, options.boundaryLevels, Boundary::Paper);
+    const auto smooth = boundaryAspectByLevel(mesh, checked.connectivity, options.boundaryLevels, Boundary::Smooth);
+    if (options.json) {
+        std::printf("[\n");
+        for (std::size_t k = 0; k < paper.size(); ++k)
+            for (const auto& [name, a] : {std::pair{"paper", paper[k]}, std::pair{"smooth", smooth[k]}})
+                std::printf("%s{\"level\": %zu, \"boundary\": \"%s\", \"triangles\": %llu, \"worst_aspect\": %s, "
+                            "\"median_aspect\": %s}",
+                            k == 0 && std::string(name) == "paper" ? "" : ",\n", k + 1, name,
+                            (unsigned long long)a.triangles, jsonNumber(a.worst).c_str(), jsonNumber(a.median).c_str());
+        std::printf("\n]\n");
+        return 0;
+    }
+    std::printf("%s: triangles along the boundary after each P-S step; aspect = longest edge / height on it\n"
+                "(equilateral 1.155). paper: SPEC.md, the boundary is never refined. smooth (--boundary smooth,\n"
+                "beyond the paper): boundary edges split every second step, cubic B-spline rules.\n\n",
+                options.boundaryModel.c_str());
+    std::printf("%5s  %10s %12s %12s  %10s %12s %12s\n", "level", "paper: tri", "worst", "median", "smooth: tri", "worst",
+                "median");
+    for (std::size_t k = 0; k < paper.size(); ++k)
+        std::printf("%5zu  %10llu %12.4g %12.4g  %10llu %12.4g %12.4g\n", k + 1, (unsigned long long)paper[k].triangles,
+                    paper[k].worst, paper[k].median, (unsigned long long)smooth[k].triangles, smooth[k].worst,
+                    smooth[k].median);
+    return 0;
 }
 
 }  // namespace
@@ -111,6 +160,7 @@ std::vector<Index> parseValences(const std::string& text) {
 }
 
 int runAnalyze(const AnalyzeOptions& options) {
+    if (!options.boundaryModel.empty()) return runBoundaryAspect(options);
     const std::vector<Index> valences = parseValences(options.valences);
     ValenceOptions valenceOptions;
     valenceOptions.characteristicRings = options.rings;
@@ -158,13 +208,10 @@ int runAnalyze(const AnalyzeOptions& options) {
 
 int runCompare(const CompareOptions& options) {
     if (options.levels % 2 != 0) throw InputError("--levels must be even: P-S after 2k steps against Catmull-Clark after k");
-    std::vector<std::string> warnings;
-    Mesh mesh = readObj(options.input, &warnings);
-    const CheckedMesh checked = checkMesh(mesh);
-    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
-    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    CheckedMesh checked;
+    const Mesh mesh = loadWithWarnings(options.input, checked);
     const Rules rules = options.rules == "robust" ? Rules::Robust : Rules::Paper;
-    const Fidelity f = compareLoaded(mesh, checked.connectivity, options.levels, rules, options.samples);
+    const Fidelity f = compareLoaded(mesh, checked.connectivity, options.levels, rules, options.samples, options.boundary);
     const double diagonal = f.cc.diagonal();
     const auto maxOf = [](const std::vector<double>& v) {
         double m = 0;
@@ -183,18 +230,19 @@ int runCompare(const CompareOptions& options) {
                    jsonNumber(m.hi[0]) + ", " + jsonNumber(m.hi[1]) + ", " + jsonNumber(m.hi[2]) +
                    "], \"box_diagonal\": " + jsonNumber(m.diagonal()) + "}";
         };
-        std::printf("{\"input\": \"%s\", \"rules\": \"%s\", \"ps_steps\": %d, \"cc_levels\": %d, \"ps_faces\": %u, "
+        std::printf("{\"input\": \"%s\", \"rules\": \"%s\", \"boundary\": \"%s\", \"ps_steps\": %d, \"cc_levels\": %d, \"ps_faces\": %u, "
                     "\"cc_faces\": %u,\n \"input_measures\": %s,\n \"ps\": %s,\n \"cc\": %s,\n \"hausdorff\": %s, "
                     "\"ps_to_cc_max\": %s, \"ps_to_cc_mean\": %s, \"cc_to_ps_max\": %s, \"cc_to_ps_mean\": %s, "
                     "\"samples_each_way\": [%zu, %zu]}\n",
-                    options.input.c_str(), rulesName(rules), f.psSteps, f.ccLevels, f.psFaces, f.ccFaces,
-                    measures(f.input).c_str(), measures(f.ps).c_str(), measures(f.cc).c_str(),
+                    options.input.c_str(), rulesName(rules), boundaryName(options.boundary), f.psSteps, f.ccLevels,
+                    f.psFaces, f.ccFaces, measures(f.input).c_str(), measures(f.ps).c_str(), measures(f.cc).c_str(),
                     jsonNumber(f.hausdorff()).c_str(), jsonNumber(maxOf(f.psToCc)).c_str(),
                     jsonNumber(meanOf(f.psToCc)).c_str(), jsonNumber(maxOf(f.ccToPs)).c_str(),
                     jsonNumber(meanOf(f.ccToPs)).c_str(), f.psToCc.size(), f.ccToPs.size());
     } else {
-        std::printf("%s: P-S %d steps (%s rules) against Catmull-Clark %d level%s (OpenSubdiv)\n\n", options.input.c_str(),
-                    f.psSteps, rulesName(rules), f.ccLevels, f.ccLevels == 1 ? "" : "s");
+        std::printf("%s: P-S %d steps (%s rules, %s boundary) against Catmull-Clark %d level%s (OpenSubdiv)\n\n",
+                    options.input.c_str(), f.psSteps, rulesName(rules), boundaryName(options.boundary), f.ccLevels,
+                    f.ccLevels == 1 ? "" : "s");
         std::printf("%-14s %14s %14s %14s %10s\n", "", "input", "P-S", "Catmull-Clark", "P-S/CC");
         std::printf("%-14s %14u %14u %14u %10.3f\n", "faces", mesh.faces.faceCount(), f.psFaces, f.ccFaces,
                     double(f.psFaces) / double(f.ccFaces));

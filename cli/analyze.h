@@ -16,12 +16,15 @@ struct AnalyzeOptions {
     bool json = false;
     int rings = 8;    // characteristic map's control net
     int levels = 10;  // two-step levels of the tangent-plane check
+    std::string boundaryModel;  // set: report boundary triangle shapes of this mesh instead
+    int boundaryLevels = 11;    // P-S steps of that report
 };
 
 struct CompareOptions {
     std::string input;
     int levels = 2;                 // P-S steps (even); Catmull-Clark gets half
     std::string rules = "paper";
+    Boundary boundary = Boundary::Paper;
     std::string plot;               // PNG path; empty: no plot
     int samples = 2;                // sample intervals per triangle edge
     bool json = false;

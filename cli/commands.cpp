@@ -55,13 +55,14 @@ std::uint64_t physicalMemory() {
 // two levels of topology at a time (about 44 B per half-edge, 30 B per vertex, 8 B per face),
 // plus every level's table rows, the finest surface, the evaluator's level buffers (doubles)
 // and the OBJ text of the finest level.
-double estimateBytes(const Counts& input, int steps) {
+double estimateBytes(const Counts& input, int steps, Boundary boundary, bool preprocessed) {
     auto halfedges = [](const Counts& c) { return 2.0 * double(c.edges) - double(c.boundaryEdges); };
     auto topology = [&](const Counts& c) { return 44 * halfedges(c) + 30 * double(c.vertices) + 8 * double(c.faces); };
-    const Counts finest = countsAfterSteps(input, steps);
-    double bytes = topology(finest) + (steps > 0 ? topology(countsAfterSteps(input, steps - 1)) : 0.0);
+    auto after = [&](int k) { return countsAfterSteps(input, k, boundary, preprocessed); };
+    const Counts finest = after(steps);
+    double bytes = topology(finest) + (steps > 0 ? topology(after(steps - 1)) : 0.0);
     for (int k = 1; k <= steps; ++k) {
-        const Counts parent = countsAfterSteps(input, k - 1), child = countsAfterSteps(input, k);
+        const Counts parent = after(k - 1), child = after(k);
         bytes += 4 * (double(child.vertices) + double(parent.vertices) + 3 * halfedges(parent));  // table
         bytes += 24 * double(child.vertices);  // evaluator buffers
     }
@@ -83,19 +84,19 @@ std::string humanBytes(double bytes) {
 // topological steps (2 for Catmull-Clark, which quadruples the faces), after `extraSteps`
 // (the paired method).
 void guardMemory(const Mesh& mesh, const Counts& input, int levels, int stepsPerLevel, int extraSteps,
-                 std::uint64_t limit) {
+                 std::uint64_t limit, Boundary boundary = Boundary::Paper) {
     if (limit == 0) limit = physicalMemory() / 4 * 3;
     auto steps = [&](int l) { return extraSteps + stepsPerLevel * l; };
     auto fits = [&](int l) {
-        const Counts c = countsAfterSteps(input, steps(l));
-        return estimateBytes(input, steps(l)) <= double(limit) &&
+        const Counts c = countsAfterSteps(input, steps(l), boundary, extraSteps > 0);
+        return estimateBytes(input, steps(l), boundary, extraSteps > 0) <= double(limit) &&
                2.0 * double(c.edges) < double(kNoIndex) && double(c.vertices) < double(kNoIndex);
     };
     if (fits(levels)) return;
     int most = -1;
     while (most + 1 < levels && fits(most + 1)) ++most;
     throw InputError(mesh.source.path + ": --levels " + std::to_string(levels) + " would need about " +
-                     humanBytes(estimateBytes(input, steps(levels))) + " (limit " + humanBytes(double(limit)) +
+                     humanBytes(estimateBytes(input, steps(levels), boundary, extraSteps > 0)) + " (limit " + humanBytes(double(limit)) +
                      ", and 32-bit indices); " +
                      (most >= 0 ? "--levels " + std::to_string(most) + " is the most that fits"
                                 : std::string("not even the input fits")));
@@ -147,10 +148,11 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
                                                loaded.mesh.source);
     const int steps = o.levels + (preprocess ? 1 : 0);
     guardMemory(loaded.mesh, countMesh(faces, loaded.checked.connectivity), o.levels, 1, preprocess ? 1 : 0,
-                o.maxMemory);
+                o.maxMemory, o.boundary);
     const auto start = Clock::now();
     RefineOptions options{o.levels, o.preprocess, false, {}};
     options.rules = o.rules;
+    options.boundary = o.boundary;
     if (progressWanted())
         options.onLevel = [&](int level, double seconds) {
             std::fprintf(stderr, "psub: level %d/%d topology in %.1f ms\n", level, steps, seconds * 1e3);
@@ -178,7 +180,8 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     }
     const Faces finest = finestFaces(refinement.surface);
     const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") +
-                             preprocessName(preprocess) + (o.rules == Rules::Robust ? ", robust rules" : "");
+                             preprocessName(preprocess) + (o.rules == Rules::Robust ? ", robust rules" : "") +
+                             (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
     writeFileAtomic(o.output, formatObj(finest, positions, header(o.input, what)));
     std::printf("%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));

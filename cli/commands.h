@@ -21,6 +21,7 @@ struct SubdivideOptions {
     Scheme scheme = Scheme::PS;
     Preprocess preprocess = Preprocess::Auto;
     Rules rules = Rules::Paper;
+    Boundary boundary = Boundary::Paper;
     Backend backend = Backend::Cpu;
     std::uint64_t maxMemory = 0;  // bytes; 0 = default (3/4 of physical memory)
 };

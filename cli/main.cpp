@@ -19,6 +19,7 @@ const std::map<std::string, Preprocess> kPreprocess = {
     {"auto", Preprocess::Auto}, {"always", Preprocess::Always}, {"never", Preprocess::Never}};
 const std::map<std::string, Scheme> kScheme = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
 const std::map<std::string, Rules> kRules = {{"paper", Rules::Paper}, {"robust", Rules::Robust}};
+const std::map<std::string, Boundary> kBoundary = {{"paper", Boundary::Paper}, {"smooth", Boundary::Smooth}};
 const std::map<std::string, Backend> kBackend = {
     {"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}, {"auto", Backend::Auto}};
 
@@ -80,6 +81,11 @@ int main(int argc, char** argv) {
               "paper: SPEC.md exactly; robust (beyond the paper): interior valence 2 gets c, d, e = "
               "0, 1/3, 1/6 instead of the paper's folding -1/2, 1/2, 1/4 (--scheme ps only)",
               "paper");
+    addChoice(sub, "--boundary", subdivide.boundary, kBoundary,
+              "paper: SPEC.md exactly, the boundary is never refined (its triangles grow thin); "
+              "smooth (beyond the paper): every second step splits the boundary edges with cubic "
+              "B-spline rules, so after 2k steps the boundary is Catmull-Clark's after k (--scheme ps only)",
+              "paper");
     addChoice(sub, "--backend", subdivide.backend, kBackend,
               "where the stencils are evaluated: cpu (double); vulkan (float, on the device chosen by "
               "capability or $PSUB_VULKAN_DEVICE; exit 1 without one); auto (vulkan when a device is "
@@ -88,8 +94,9 @@ int main(int argc, char** argv) {
     addMaxMemory(sub, subdivide.maxMemory);
     sub->footer("Example:\n  psub subdivide data/cow.obj -o cow_ps4.obj --levels 4\n"
                 "  psub subdivide data/cow.obj -o cow_cc2.obj --levels 2 --scheme cc\n"
+                "  psub subdivide data/grid4x4.obj -o grid_smooth.obj --levels 4 --boundary smooth\n"
                 "Vertex order (SPEC.md): children of old vertices first, then one vertex per "
-                "old face.");
+                "old face (then, --boundary smooth, one per split boundary edge, in edge order).");
 
     StatsOptions stats;
     CLI::App* st = app.add_subcommand("stats", "Count vertices, edges, faces per level, P-S beside Catmull-Clark");
@@ -134,11 +141,17 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(4, 10))->default_val(8);
     an->add_option("--tangent-levels", analyze.levels, "two-step levels of the tangent-plane check")
         ->check(CLI::Range(1, 40))->default_val(10);
+    an->add_option("--boundary-aspect", analyze.boundaryModel,
+                   "instead: the shape of the triangles along this mesh's boundary after each P-S step, "
+                   "--boundary paper beside smooth");
+    an->add_option("--boundary-levels", analyze.boundaryLevels, "P-S steps of --boundary-aspect")
+        ->check(CLI::Range(1, 16))->default_val(11);
     an->footer("For an interior vertex of valence n surrounded by quads, builds the two-step P-S matrix from the\n"
                "engine's stencil tables, and Catmull-Clark's from OpenSubdiv's. The paper's rules fail C1 at\n"
                "valence 2; --rules robust passes.\n"
                "Examples:\n  psub analyze --valence 2..16\n  psub analyze --valence 2 --rules both\n"
-               "  psub analyze --valence 3,5 --rules paper --json");
+               "  psub analyze --valence 3,5 --rules paper --json\n"
+               "  psub analyze --boundary-aspect data/grid4x4.obj --boundary-levels 11");
 
     CompareOptions compare;
     CLI::App* co = app.add_subcommand(
@@ -154,6 +167,10 @@ int main(int argc, char** argv) {
         ->default_val(2);
     co->add_option("--rules", compare.rules, "P-S rules: paper or robust")
         ->check(CLI::IsMember({"paper", "robust"}))->default_val("paper");
+    addChoice(co, "--boundary", compare.boundary, kBoundary,
+              "paper: the boundary is never refined; smooth (beyond the paper): split every second step, "
+              "so the boundary is Catmull-Clark's",
+              "paper");
     co->add_option("--plot", compare.plot, "also draw the comparison as a PNG here (ratios and distance histograms)");
     co->add_option("--samples", compare.samples, "sample intervals per triangle edge for the distances")
         ->check(CLI::Range(1, 16))->default_val(2);
@@ -225,6 +242,7 @@ int main(int argc, char** argv) {
         "  psub bench /path/to/stanford-bunny.obj data/spot_control_mesh.obj --json bunny.json\n"
         "  psub bench --quick                                # smallest size of each model");
 
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::Success& e) {
@@ -239,6 +257,10 @@ int main(int argc, char** argv) {
     }
     if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--rules")) {
         std::fprintf(stderr, "psub subdivide: --rules applies to --scheme ps only\n");
+        return 2;
+    }
+    if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--boundary")) {
+        std::fprintf(stderr, "psub subdivide: --boundary applies to --scheme ps only (Catmull-Clark's is smooth)\n");
         return 2;
     }
     if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--backend")) {

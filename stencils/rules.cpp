@@ -40,11 +40,18 @@ std::vector<double> pairedPositions(const Faces& faces, std::span<const double> 
 }
 
 std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
-                                std::span<const double> positions, Rules rules) {
+                                std::span<const double> positions, Rules rules, bool splitBoundary) {
     std::vector<double> out;
-    out.reserve(3 * (std::size_t(faces.vertexCount) + faces.faceCount()));
+    out.reserve(3 * (std::size_t(faces.vertexCount) + faces.faceCount() + c.boundaryEdgeCount));
     for (Index v = 0; v < faces.vertexCount; ++v) {
         const double* p = &positions[3 * v];
+        if (splitBoundary && c.kind[v] == VertexKind::Boundary) {
+            const BoundaryNeighbours around = boundaryNeighbours(faces, c, v);
+            for (int axis = 0; axis < 3; ++axis)
+                out.push_back((positions[3 * around.previous + axis] + 6 * p[axis] +
+                               positions[3 * around.next + axis]) / 8);
+            continue;
+        }
         if (isRetained(c.kind[v])) {
             out.insert(out.end(), p, p + 3);
             continue;
@@ -73,6 +80,13 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
                           w.diagonal * diagonalSum[axis]);
     }
     appendFaceAverages(faces, positions, out);
+    if (!splitBoundary) return out;
+    for (Index h : c.edgeHalfedge) {
+        if (c.twin[h] != kNoIndex) continue;
+        const Index a = faces.verts[h], b = faces.verts[c.next[h]];
+        for (int axis = 0; axis < 3; ++axis)
+            out.push_back((positions[3 * a + axis] + positions[3 * b + axis]) / 2);
+    }
     return out;
 }
 
@@ -81,7 +95,8 @@ std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t
     const Level& parent = hierarchy.levels[k - 1];
     const bool paired = hierarchy.preprocessed && k == 1;
     return paired ? pairedPositions(parent.faces, parentPositions)
-                  : psPositions(parent.faces, parent.connectivity, parentPositions, rules);
+                  : psPositions(parent.faces, parent.connectivity, parentPositions, rules,
+                                hierarchy.splitsBoundary(k));
 }
 
 std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control,

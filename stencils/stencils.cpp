@@ -23,6 +23,8 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
     case RowKind::FaceTriangle:
     case RowKind::FacePolygon: g.centre = g.edge = 1.0 / g.width; break;
     case RowKind::Retained: break;
+    case RowKind::BoundaryVertex: std::tie(g.centre, g.edge) = std::tuple(0.75, 0.125); break;
+    case RowKind::BoundaryEdge: g.centre = g.edge = 0.5; break;
     case RowKind::VertexQuad: {
         const VertexWeights w = quadVertexWeights(n, rules);
         std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre, w.edge, w.diagonal);
@@ -38,21 +40,36 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
 }
 
 // The rows of one step (parent level -> child level): each child vertex's kind and shape, and
-// its sources written in place. Old vertex v gives row v, face f gives row oldVertices + f.
+// its sources written in place. Old vertex v gives row v, face f gives row oldVertices + f,
+// and, when the step splits the boundary, boundary edge i gives row oldVertices + faces + i.
 struct StepRows {
     const Faces& faces;
     const Connectivity& c;
     bool paired;
+    bool splitBoundary;
+    std::vector<Index> boundaryHalfedges;  // split steps: per boundary edge, in edge order
+
+    StepRows(const Faces& f, const Connectivity& connectivity, bool isPaired, bool split)
+        : faces(f), c(connectivity), paired(isPaired), splitBoundary(split) {
+        if (!split) return;
+        boundaryHalfedges.reserve(c.boundaryEdgeCount);
+        for (Index h : c.edgeHalfedge)
+            if (c.twin[h] == kNoIndex) boundaryHalfedges.push_back(h);
+    }
 
     std::uint32_t oldVertices() const { return faces.vertexCount; }
-    std::uint32_t childCount() const { return faces.vertexCount + faces.faceCount(); }
+    std::uint32_t firstEdgePoint() const { return faces.vertexCount + faces.faceCount(); }
+    std::uint32_t childCount() const { return firstEdgePoint() + std::uint32_t(boundaryHalfedges.size()); }
+    bool curveVertex(std::uint32_t d) const { return splitBoundary && c.kind[d] == VertexKind::Boundary; }
 
     GroupKey shape(std::uint32_t d) const {
+        if (d >= firstEdgePoint()) return {RowKind::BoundaryEdge, 1, 0};
         if (d >= oldVertices()) {
             const std::uint32_t size = faces.faceSize(d - oldVertices());
             return {size == 4 ? RowKind::FaceQuad : size == 3 ? RowKind::FaceTriangle : RowKind::FacePolygon,
                     size - 1, 0};
         }
+        if (curveVertex(d)) return {RowKind::BoundaryVertex, 2, 0};
         if (paired || isRetained(c.kind[d])) return {RowKind::Retained, 0, 0};
         std::uint32_t quads = 0, triangles = 0;
         for (Index h : c.outgoingOf(d)) ++(faces.faceSize(c.faceOf[h]) == 4 ? quads : triangles);
@@ -60,13 +77,26 @@ struct StepRows {
         return triangles == 0 ? GroupKey{RowKind::VertexQuad, n, n} : GroupKey{RowKind::VertexMixed, n, quads};
     }
 
-    // Sources of row d: the centre, its n edge neighbours, its m diagonals (SPEC.md's Pi, Pj).
+    // Sources of row d: the centre, its n edge neighbours, its m diagonals (SPEC.md's Pi, Pj);
+    // a boundary curve vertex: itself, then its boundary neighbours; an edge point: its ends.
     void sources(std::uint32_t d, std::uint32_t* out) const {
+        if (d >= firstEdgePoint()) {
+            const Index h = boundaryHalfedges[d - firstEdgePoint()];
+            *out++ = faces.verts[h];
+            *out++ = faces.verts[c.next[h]];
+            return;
+        }
         if (d >= oldVertices()) {
             for (Index v : faces.face(d - oldVertices())) *out++ = v;
             return;
         }
         *out++ = d;
+        if (curveVertex(d)) {
+            const BoundaryNeighbours around = boundaryNeighbours(faces, c, d);
+            *out++ = around.previous;
+            *out++ = around.next;
+            return;
+        }
         if (paired || isRetained(c.kind[d])) return;
         for (Index h : c.outgoingOf(d)) *out++ = faces.verts[c.next[h]];
         for (Index h : c.outgoingOf(d))
@@ -75,8 +105,8 @@ struct StepRows {
 };
 
 // Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
-void appendLevel(PerLevelTable& table, const Level& parent, bool paired, Rules rules) {
-    const StepRows step{parent.faces, parent.connectivity, paired};
+void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool splitBoundary, Rules rules) {
+    const StepRows step(parent.faces, parent.connectivity, paired, splitBoundary);
     const std::uint32_t childCount = step.childCount();
 
     // Pass 1: the shape of every row; groups numbered as first met, with a one-entry cache
@@ -139,7 +169,8 @@ PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy, Rules rules) {
     PerLevelTable table;
     table.controlCount = hierarchy.levels.front().faces.vertexCount;
     for (std::size_t k = 1; k < hierarchy.levels.size(); ++k)
-        appendLevel(table, hierarchy.levels[k - 1], hierarchy.preprocessed && k == 1, rules);
+        appendLevel(table, hierarchy.levels[k - 1], hierarchy.preprocessed && k == 1,
+                    hierarchy.splitsBoundary(k), rules);
     return table;
 }
 
@@ -265,11 +296,12 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     const int steps = options.levels + (out.preprocessed ? 1 : 0);
     for (int k = 1; k <= steps; ++k) {
         auto start = Clock::now();
-        Level child = refineLevel(parent);
+        const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));
+        Level child = refineLevel(parent, split);
         const double topologyMs = ms(start);
         out.topologyMs += topologyMs;
         start = Clock::now();
-        appendLevel(out.perLevel, parent, out.preprocessed && k == 1, options.rules);
+        appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules);
         out.perLevelMs += ms(start);
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
         parent = std::move(child);

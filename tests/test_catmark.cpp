@@ -1,10 +1,14 @@
 // Catmull-Clark through OpenSubdiv: documented counts and a hand-computed vertex point.
 #include "psub/catmark.h"
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <utility>
 
 namespace psub {
 namespace {
@@ -68,6 +72,77 @@ TEST(Catmark, BoundaryIsInterpolatedEdgeOnly) {
     const auto levels = refineCatmark(grid.mesh.faces, grid.mesh.positions, 2);
     for (std::size_t v = 0; v < levels[2].positions.size() / 3; ++v)
         EXPECT_EQ(levels[2].positions[3 * v + 2], 0.0);
+}
+
+// A mesh's directed boundary edges as their two end positions.
+std::vector<std::array<double, 6>> boundaryEdges(const Faces& faces, const std::vector<double>& p) {
+    const Connectivity c = buildConnectivity(faces);
+    std::vector<std::array<double, 6>> edges;
+    for (Index h = 0; h < faces.verts.size(); ++h) {
+        if (c.twin[h] != kNoIndex) continue;
+        const Index a = faces.verts[h], b = faces.verts[c.next[h]];
+        edges.push_back({p[3 * a], p[3 * a + 1], p[3 * a + 2], p[3 * b], p[3 * b + 1], p[3 * b + 2]});
+    }
+    return edges;
+}
+
+// Edges of `actual` with no edge of `expected` within `tolerance` (every coordinate).
+std::size_t unmatchedEdges(const std::vector<std::array<double, 6>>& actual,
+                           const std::vector<std::array<double, 6>>& expected, double tolerance) {
+    std::size_t unmatched = 0;
+    for (const auto& edge : actual) {
+        bool found = false;
+        for (const auto& other : expected) {
+            bool same = true;
+            for (int i = 0; i < 6; ++i) same = same && std::abs(edge[i] - other[i]) <= tolerance;
+            found = found || same;
+        }
+        unmatched += !found;
+    }
+    return unmatched;
+}
+
+// P-S positions and faces after `levels` steps through the engine's tables (CPU, double).
+std::pair<Faces, std::vector<double>> psThroughTables(const test::Loaded& loaded, int levels, Boundary boundary) {
+    RefineOptions options;
+    options.levels = levels;
+    options.boundary = boundary;
+    const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
+    CpuEvaluator<double> evaluator(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+    std::vector<double> positions(3 * std::size_t(evaluator.refinedCount()));
+    evaluator.evaluate(loaded.mesh.positions, positions);
+    Faces faces;
+    faces.vertexCount = r.surface.vertexCount;
+    faces.offsets = r.surface.faceOffsets;
+    faces.verts = r.surface.faceVerts;
+    return {faces, positions};
+}
+
+TEST(Catmark, SmoothBoundaryAfter2kPSStepsIsCatmullClarksBoundaryAfterK) {
+    const std::vector<std::string> models = test::manifoldModelsWithBoundary();
+    ASSERT_GE(models.size(), 5u);
+    for (const std::string& path : models)
+        for (int k : {1, 2}) {
+            SCOPED_TRACE(path + " k " + std::to_string(k));
+            const auto loaded = load(path);
+            const auto cc = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, k).back();
+            const auto [faces, positions] = psThroughTables(loaded, 2 * k, Boundary::Smooth);
+            const auto ps = boundaryEdges(faces, positions), expected = boundaryEdges(cc.faces, cc.positions);
+            ASSERT_EQ(ps.size(), expected.size());
+            EXPECT_EQ(unmatchedEdges(ps, expected, 1e-12), 0u);
+            // The paper's boundary is not Catmull-Clark's (so the check above can fail).
+            const auto [paperFaces, paperPositions] = psThroughTables(loaded, 2 * k, Boundary::Paper);
+            const auto paper = boundaryEdges(paperFaces, paperPositions);
+            EXPECT_NE(paper.size(), expected.size());
+        }
+}
+
+TEST(Catmark, SmoothBoundaryAfterOddStepsIsAlreadyCatmullClarksPolyline) {
+    // The split comes first in each pair, so after 2k - 1 steps the boundary is CC's after k.
+    const auto grid = load(test::dataPath("grid4x4.obj"));
+    const auto cc = refineCatmark(grid.mesh.faces, grid.mesh.positions, 2).back();
+    const auto [faces, positions] = psThroughTables(grid, 3, Boundary::Smooth);
+    EXPECT_EQ(unmatchedEdges(boundaryEdges(faces, positions), boundaryEdges(cc.faces, cc.positions), 1e-12), 0u);
 }
 
 }  // namespace

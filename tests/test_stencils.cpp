@@ -23,9 +23,10 @@ struct Refined {
     SurfaceTable surface;
 };
 
-Refined refineModel(const std::string& path, int steps, Preprocess mode = Preprocess::Auto) {
+Refined refineModel(const std::string& path, int steps, Preprocess mode = Preprocess::Auto,
+                    Boundary boundary = Boundary::Paper) {
     Refined r{load(path), {}, {}, {}, {}};
-    r.hierarchy = test::refine(r.loaded, steps, mode);
+    r.hierarchy = test::refine(r.loaded, steps, mode, boundary);
     r.perLevel = buildPerLevelTable(r.hierarchy);
     r.factorized = buildFactorizedTable(r.perLevel);
     r.surface = buildSurfaceTable(r.hierarchy.finest().faces);
@@ -76,6 +77,51 @@ TEST(Stencils, BothFormsEqualTheRulesOnEveryModel) {
         }
 }
 
+TEST(Stencils, SmoothBoundaryTablesEqualTheRulesOnEveryModel) {
+    for (const std::string& path : test::allValidModels())
+        for (int steps : {1, 2, 4}) {
+            SCOPED_TRACE(path + " steps " + std::to_string(steps));
+            const Refined r = refineModel(path, steps, Preprocess::Auto, Boundary::Smooth);
+            const std::vector<double> oracle = refinePositions(r.hierarchy, r.loaded.mesh.positions);
+            const double scale = diagonal(r.loaded.mesh.positions);
+            const auto& control = r.loaded.mesh.positions;
+            expectClose(evaluateWith<double>(r, TableForm::PerLevel, control), oracle, 1e-12, scale);
+            expectClose(evaluateWith<double>(r, TableForm::Factorized, control), oracle, 1e-6, scale);
+            expectClose(evaluateWith<float>(r, TableForm::PerLevel, control), oracle, 1e-5, scale);
+        }
+}
+
+TEST(Stencils, SmoothBoundaryRowsAreTheCubicBSplineCurveRules) {
+    // grid4x4, one split step: corner 0 (neighbours 5 and 1) -> (P5 + 6 P0 + P1) / 8; the first
+    // edge point (vertex 41, edge 0->1) -> (P0 + P1) / 2; interior rows keep the paper's rules.
+    const Refined r = refineModel(test::dataPath("grid4x4.obj"), 1, Preprocess::Auto, Boundary::Smooth);
+    const FactorizedTable& t = r.factorized;
+    const auto row = [&](std::uint32_t v) {
+        std::vector<double> weights(25, 0.0);
+        for (std::uint64_t e = t.offsets[v]; e < t.offsets[v + 1]; ++e) weights[t.indices[e]] = t.weights[e];
+        return weights;
+    };
+    std::vector<double> corner(25, 0.0), edgePoint(25, 0.0), middle(25, 0.0);
+    corner[0] = 0.75, corner[1] = corner[5] = 0.125;
+    edgePoint[0] = edgePoint[1] = 0.5;
+    middle[12] = 0.25, middle[7] = middle[11] = middle[13] = middle[17] = 0.125;
+    middle[6] = middle[8] = middle[16] = middle[18] = 0.0625;
+    for (int v = 0; v < 25; ++v) {
+        EXPECT_FLOAT_EQ(float(row(0)[v]), float(corner[v])) << "control " << v;
+        EXPECT_FLOAT_EQ(float(row(41)[v]), float(edgePoint[v])) << "control " << v;
+        EXPECT_FLOAT_EQ(float(row(12)[v]), float(middle[v])) << "control " << v;
+    }
+    // The second step of the pair keeps the boundary: the boundary rows are copies.
+    const Refined two = refineModel(test::dataPath("grid4x4.obj"), 2, Preprocess::Auto, Boundary::Smooth);
+    const StencilLevel& second = two.perLevel.levels[1];
+    std::uint64_t curveRows = 0, edgeRows = 0;
+    for (std::uint64_t g = second.groupBegin; g < second.groupEnd; ++g) {
+        curveRows += two.perLevel.groups[g].kind == RowKind::BoundaryVertex;
+        edgeRows += two.perLevel.groups[g].kind == RowKind::BoundaryEdge;
+    }
+    EXPECT_EQ(curveRows + edgeRows, 0u);
+}
+
 TEST(Stencils, PreprocessedQuadMeshAlsoMatches) {
     const Refined r = refineModel(test::dataPath("cube.obj"), 3, Preprocess::Always);
     const std::vector<double> oracle = refinePositions(r.hierarchy, r.loaded.mesh.positions);
@@ -99,14 +145,17 @@ TEST(Stencils, CubeCornerRowIsTheHandComputedStencil) {
 }
 
 TEST(Stencils, TableSizesEqualClosedFormCounts) {
-    for (const std::string& path : test::allValidModels()) {
-        SCOPED_TRACE(path);
-        const Refined r = refineModel(path, 3);
+    for (const std::string& path : test::allValidModels())
+      for (Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
+        SCOPED_TRACE(path + " boundary " + boundaryName(boundary));
+        const Refined r = refineModel(path, 3, Preprocess::Auto, boundary);
         const Counts input = countMesh(r.loaded.mesh.faces, r.loaded.checked.connectivity);
+        const bool pre = r.hierarchy.preprocessed;
         ASSERT_EQ(r.perLevel.levels.size(), r.hierarchy.levels.size() - 1);
         for (std::size_t k = 0; k < r.perLevel.levels.size(); ++k) {
             const StencilLevel& level = r.perLevel.levels[k];
-            const Counts parent = countsAfterSteps(input, int(k)), child = countsAfterSteps(input, int(k) + 1);
+            const Counts parent = countsAfterSteps(input, int(k), boundary, pre),
+                         child = countsAfterSteps(input, int(k) + 1, boundary, pre);
             EXPECT_EQ(level.sourceCount, parent.vertices);
             EXPECT_EQ(level.destinationCount, child.vertices);
             EXPECT_EQ(level.rowEnd - level.rowBegin, child.vertices);
@@ -118,8 +167,9 @@ TEST(Stencils, TableSizesEqualClosedFormCounts) {
             EXPECT_EQ(quadRows, parent.quads);
             EXPECT_EQ(triangleRows, parent.triangles);
         }
-        EXPECT_EQ(r.factorized.rowCount(), countsAfterSteps(input, int(r.perLevel.levels.size())).vertices);
-        EXPECT_EQ(r.surface.faceOffsets.size() - 1, countsAfterSteps(input, int(r.perLevel.levels.size())).faces);
+        const Counts finest = countsAfterSteps(input, int(r.perLevel.levels.size()), boundary, pre);
+        EXPECT_EQ(r.factorized.rowCount(), finest.vertices);
+        EXPECT_EQ(r.surface.faceOffsets.size() - 1, finest.faces);
     }
 }
 

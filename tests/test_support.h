@@ -49,9 +49,23 @@ inline Mesh makeMesh(std::vector<double> positions,
     return mesh;
 }
 
-inline Hierarchy refine(const Loaded& loaded, int steps, Preprocess mode = Preprocess::Auto) {
+inline Hierarchy refine(const Loaded& loaded, int steps, Preprocess mode = Preprocess::Auto,
+                        Boundary boundary = Boundary::Paper) {
     const bool preprocess = needsPreprocessing(loaded.mesh.faces, loaded.checked.connectivity, mode);
-    return refineTopology(loaded.mesh.faces, loaded.checked.connectivity, preprocess, steps);
+    return refineTopology(loaded.mesh.faces, loaded.checked.connectivity, preprocess, steps, {}, boundary);
+}
+
+// Models with a boundary and no non-manifold vertex (where --boundary smooth has work to do
+// and OpenSubdiv's boundary rules apply unchanged).
+inline std::vector<std::string> manifoldModelsWithBoundary() {
+    std::vector<std::string> models;
+    for (const std::string& path : allValidModels()) {
+        const Loaded loaded = load(path);
+        bool nonManifold = false;
+        for (VertexKind kind : loaded.checked.connectivity.kind) nonManifold = nonManifold || kind == VertexKind::NonManifold;
+        if (loaded.checked.connectivity.boundaryEdgeCount > 0 && !nonManifold) models.push_back(path);
+    }
+    return models;
 }
 
 }  // namespace psub::test

@@ -141,14 +141,15 @@ TEST(Topology, PairedMethodOnClosedMeshGivesOneQuadPerEdge) {
 }
 
 TEST(Topology, ClosedFormCountsMatchRefinementOnEveryModel) {
-    for (const std::string& path : test::allValidModels()) {
-        SCOPED_TRACE(path);
+    for (const std::string& path : test::allValidModels())
+      for (Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
+        SCOPED_TRACE(path + " boundary " + boundaryName(boundary));
         const auto loaded = load(path);
         const Counts input = countMesh(loaded.mesh.faces, loaded.checked.connectivity);
-        const Hierarchy h = test::refine(loaded, 3, Preprocess::Always);
+        const Hierarchy h = test::refine(loaded, 4, Preprocess::Always, boundary);
         for (std::size_t k = 0; k < h.levels.size(); ++k) {
             const Counts real = countMesh(h.levels[k].faces, h.levels[k].connectivity);
-            const Counts closed = countsAfterSteps(input, int(k));
+            const Counts closed = countsAfterSteps(input, int(k), boundary, true);
             EXPECT_EQ(real.vertices, closed.vertices) << "level " << k;
             EXPECT_EQ(real.edges, closed.edges) << "level " << k;
             EXPECT_EQ(real.faces, closed.faces) << "level " << k;
@@ -195,6 +196,50 @@ TEST(Topology, RefinedLevelsAreLegalPSInputAndKeepVertexKinds) {
     }
 }
 
+TEST(Topology, SmoothBoundarySplitsEveryBoundaryEdgeOnOddStepsOnly) {
+    // grid4x4: 25 vertices, 16 quads, 40 edges, 16 on the boundary.
+    const auto grid = load(test::dataPath("grid4x4.obj"));
+    const Hierarchy h = test::refine(grid, 4, Preprocess::Auto, Boundary::Smooth);
+    const Index boundaryEdges[] = {16, 32, 32, 64, 64}, vertices[] = {25, 25 + 16 + 16, 57 + 56, 113 + 112 + 32, 257 + 256};
+    for (std::size_t k = 0; k < h.levels.size(); ++k) {
+        EXPECT_EQ(h.levels[k].connectivity.boundaryEdgeCount, boundaryEdges[k]) << "level " << k;
+        EXPECT_EQ(h.levels[k].faces.vertexCount, vertices[k]) << "level " << k;
+    }
+    // Step 1, boundary edge 0 (the first met: 0->1 of face 0) is split at vertex 25 + 16 into
+    // [0, 41, F0] and [41, 1, F0]; the edge points are boundary vertices of valence 3.
+    const Level& one = h.levels[1];
+    const Index first[] = {0, 41, 25}, second[] = {41, 1, 25};
+    EXPECT_TRUE(std::equal(first, first + 3, one.faces.face(0).begin()));
+    EXPECT_TRUE(std::equal(second, second + 3, one.faces.face(1).begin()));
+    for (Index v = 41; v < 57; ++v) {
+        EXPECT_EQ(one.connectivity.kind[v], VertexKind::Boundary) << "vertex " << v;
+        EXPECT_EQ(one.connectivity.valence[v], 3u) << "vertex " << v;
+    }
+    const BoundaryNeighbours around = boundaryNeighbours(grid.mesh.faces, grid.checked.connectivity, 0);
+    EXPECT_EQ(around.previous, 5u);  // the boundary runs 5 -> 0 -> 1 (counter-clockwise)
+    EXPECT_EQ(around.next, 1u);
+    EXPECT_FALSE(splitsBoundary(Boundary::Paper, 1));
+    EXPECT_TRUE(splitsBoundary(Boundary::Smooth, 1));
+    EXPECT_FALSE(splitsBoundary(Boundary::Smooth, 2));
+    EXPECT_TRUE(splitsBoundary(Boundary::Smooth, 3));
+}
+
+TEST(Topology, SmoothBoundaryLevelsAreLegalPSInputWithEulerCharacteristicKept) {
+    for (const std::string& path : test::allValidModels()) {
+        SCOPED_TRACE(path);
+        const auto loaded = load(path);
+        const Hierarchy h = test::refine(loaded, 3, Preprocess::Auto, Boundary::Smooth);
+        const auto chi = [](const Level& l) {
+            const Counts c = countMesh(l.faces, l.connectivity);
+            return std::int64_t(c.vertices) - std::int64_t(c.edges) + std::int64_t(c.faces);
+        };
+        for (std::size_t k = 1; k < h.levels.size(); ++k) {
+            EXPECT_EQ(firstNonPSFace(h.levels[k].faces, h.levels[k].connectivity), kNoIndex);
+            EXPECT_EQ(chi(h.levels[k]), chi(h.levels[0]));
+        }
+    }
+}
+
 TEST(Topology, ReversedInputStaysReversed) {
     // catmark_lefthanded is clockwise throughout: refining keeps it consistently oriented.
     const auto lefthanded = load(test::testDataPath("osd-shapes/catmark_lefthanded.obj"));
@@ -206,9 +251,10 @@ TEST(Topology, DirectLevelConstructionEqualsGenericBuild) {
         SCOPED_TRACE(path);
         const auto loaded = load(path);
         Level parent{loaded.mesh.faces, loaded.checked.connectivity};
-        for (int step = 0; step < 3; ++step) {
-            const Level direct = refineLevel(parent);
-            const Faces generic = refineFaces(parent.faces, parent.connectivity);
+        for (int step = 0; step < 4; ++step) {
+            const bool split = step % 2 == 1;  // both kinds of step, each from both kinds of parent
+            const Level direct = refineLevel(parent, split);
+            const Faces generic = refineFaces(parent.faces, parent.connectivity, split);
             const Connectivity built = buildConnectivity(generic);
             ASSERT_EQ(direct.faces.vertexCount, generic.vertexCount);
             ASSERT_EQ(direct.faces.offsets, generic.offsets);

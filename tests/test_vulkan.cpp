@@ -110,9 +110,11 @@ struct Tables {
     SurfaceTable surface;
 };
 
-Tables tablesFor(const std::string& path, int steps, bool factorized = true) {
+Tables tablesFor(const std::string& path, int steps, bool factorized = true, Boundary boundary = Boundary::Paper) {
     Tables t{test::load(path), {}, {}, {}};
-    const Refinement r = refine(t.loaded.mesh, t.loaded.checked.connectivity, {steps, Preprocess::Auto, factorized, {}});
+    RefineOptions options{steps, Preprocess::Auto, factorized, {}};
+    options.boundary = boundary;
+    const Refinement r = refine(t.loaded.mesh, t.loaded.checked.connectivity, options);
     t.perLevel = r.perLevel;
     t.factorized = r.factorized;
     t.surface = r.surface;
@@ -208,6 +210,18 @@ TEST_F(Vulkan, DeeperLevelsOfTheBundledModelsMatch) {
         const Tables t = tablesFor(test::dataPath(model), steps);
         for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) compareWithCpu(context(), t, form, 3, 2);
     }
+}
+
+TEST_F(Vulkan, SmoothBoundaryTablesMatchTheCpu) {
+    // Boundary::Smooth adds the cubic B-spline boundary rows; the kernels are the same.
+    for (const char* model : {"grid4x4.obj", "cube.obj"})
+        for (int steps : {1, 4}) {
+            SCOPED_TRACE(std::string(model) + " steps " + std::to_string(steps));
+            const Tables t = tablesFor(test::dataPath(model), steps, true, Boundary::Smooth);
+            for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) compareWithCpu(context(), t, form, 3, 2);
+        }
+    const Tables suzanne = tablesFor(test::testDataPath("suzanne.obj"), 3, true, Boundary::Smooth);
+    compareWithCpu(context(), suzanne, TableForm::PerLevel, 4, 2);
 }
 
 TEST_F(Vulkan, PerLevelResultsAreBitIdenticalToTheCpu) {

@@ -1,5 +1,5 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
-// levels, turned into both table forms and evaluated; the counts must match the closed form
+// levels (either boundary mode), turned into both table forms and evaluated; the counts must match the closed form
 // and the two table forms must agree.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -15,9 +15,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const psub::Mesh mesh = psub::parseObj(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.obj");
         if (mesh.faces.verts.size() > 20000) return 0;  // keep each input fast
         const psub::CheckedMesh checked = psub::checkMesh(mesh);
-        const psub::Refinement r = psub::refine(mesh, checked.connectivity, {2, psub::Preprocess::Auto, true, {}});
+        psub::RefineOptions options{2, psub::Preprocess::Auto, true, {}};
+        options.boundary = size % 2 ? psub::Boundary::Smooth : psub::Boundary::Paper;  // both, by input length
+        const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
         const psub::Counts expected = psub::countsAfterSteps(psub::countMesh(mesh.faces, checked.connectivity),
-                                                             r.preprocessed ? 3 : 2);
+                                                             r.preprocessed ? 3 : 2, options.boundary, r.preprocessed);
         if (r.perLevel.refinedCount() != expected.vertices || r.surface.faceOffsets.size() - 1 != expected.faces)
             std::abort();
         psub::CpuEvaluator<double> perLevel(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);

@@ -5,6 +5,11 @@ Deliberately simple and independent of the C++ engine: plain lists and dicts, no
 half-edge structure beyond a dict keyed by directed edges (a, b).
 
     python3 ps_reference.py IN.obj -o OUT.obj --levels N [--preprocess auto|always|never]
+                            [--boundary paper|smooth]
+
+--boundary smooth (beyond the paper): P-S steps 1, 3, 5, ... also split every boundary edge
+a->b at M = (a + b) / 2, appended after the F-vertices in edge order, into the triangles
+[a, M, F_f], [M, b, F_f]; a manifold boundary vertex moves to (prev + 6 v + next) / 8.
 
 Output order (SPEC.md section 3 plus the engine's face-order convention):
   vertices: V-vertices of the old vertices in old order, then F-vertices in old face order;
@@ -129,9 +134,11 @@ def is_ps_legal(faces, he):
     return True
 
 
-def subdivide_topology(nv, faces, he):
-    """The common topology of preprocessing and of one P-S step (see module docstring)."""
+def subdivide_topology(nv, faces, he, split=False):
+    """The common topology of preprocessing and of one P-S step (see module docstring).
+    With split, boundary edge number i gets the vertex nv + len(faces) + i."""
     new_faces = []
+    edge_point = nv + len(faces)
     seen = set()
     for fi, f in enumerate(faces):
         k = len(f)
@@ -143,7 +150,11 @@ def subdivide_topology(nv, faces, he):
                 continue
             seen.add(key)
             g = he.get((b, a))
-            if g is None:
+            if g is None and split:
+                new_faces.append([a, edge_point, nv + fi])
+                new_faces.append([edge_point, b, nv + fi])
+                edge_point += 1
+            elif g is None:
                 new_faces.append([a, b, nv + fi])
             else:
                 new_faces.append([a, nv + g, b, nv + fi])
@@ -202,7 +213,30 @@ def vertex_classes(nv, faces, he):
     return cls, incident
 
 
-def ps_step(pos, faces):
+def boundary_curve_neighbours(v, faces, he, incident):
+    """(prev, next) for a manifold boundary vertex (one open fan), else None."""
+    outs = [f[(i + 1) % len(f)] for (fi, i) in incident[v] for f in [faces[fi]]
+            if (f[(i + 1) % len(f)], v) not in he]
+    ins = [f[(i - 1) % len(f)] for (fi, i) in incident[v] for f in [faces[fi]]
+           if (v, f[(i - 1) % len(f)]) not in he]
+    if len(outs) != 1 or len(ins) != 1:
+        return None
+    # walk the fan from the face holding v->next across interior edges p->v / v->p
+    f = he[(v, outs[0])]
+    visited = 1
+    while True:
+        face = faces[f]
+        p = face[(face.index(v) - 1) % len(face)]
+        if (v, p) not in he:
+            break
+        f = he[(v, p)]
+        visited += 1
+        if visited > len(incident[v]):
+            return None
+    return (ins[0], outs[0]) if visited == len(incident[v]) else None
+
+
+def ps_step(pos, faces, split=False):
     """One P-S step on legal P-S input; returns (new_pos, new_faces)."""
     nv = len(pos)
     he = build_halfedges(faces)
@@ -220,6 +254,11 @@ def ps_step(pos, faces):
     new_pos = []
     for v in range(nv):
         P = pos[v]
+        around = boundary_curve_neighbours(v, faces, he, incident) if split and cls[v] == 'boundary' else None
+        if around is not None:
+            a, b = pos[around[0]], pos[around[1]]
+            new_pos.append([(a[k] + 6.0 * P[k] + b[k]) / 8.0 for k in range(3)])
+            continue
         if cls[v] != 'interior':
             new_pos.append(list(P))
             continue
@@ -253,7 +292,19 @@ def ps_step(pos, faces):
             e = c / 4.0
         new_pos.append([c * P[k] + d * si[k] + e * sj[k] for k in range(3)])
     new_pos.extend(face_centroids(pos, faces))
-    return new_pos, subdivide_topology(nv, faces, he)
+    new_faces = subdivide_topology(nv, faces, he, split)
+    if split:  # edge points, in the order subdivide_topology numbered them
+        seen = set()
+        for f in faces:
+            for i in range(len(f)):
+                a, b = f[i], f[(i + 1) % len(f)]
+                key = (min(a, b), max(a, b))
+                if key in seen:
+                    continue
+                seen.add(key)
+                if (b, a) not in he:
+                    new_pos.append([(pos[a][k] + pos[b][k]) / 2.0 for k in range(3)])
+    return new_pos, new_faces
 
 
 def preprocess(pos, faces):
@@ -267,15 +318,15 @@ def needs_preprocess(faces, he):
     return not is_ps_legal(faces, he)
 
 
-def run(pos, faces, levels, mode='auto'):
+def run(pos, faces, levels, mode='auto', boundary='paper'):
     he = build_halfedges(faces)  # validates the input
     if mode == 'always' or (mode == 'auto' and needs_preprocess(faces, he)):
         pos, faces = preprocess(pos, faces)
     elif mode == 'never' and not is_ps_legal(faces, he):
         raise MeshError('--preprocess never: input is not legal P-S input '
                         '(only quads and triangles with a boundary edge are)')
-    for _ in range(levels):
-        pos, faces = ps_step(pos, faces)
+    for step in range(1, levels + 1):
+        pos, faces = ps_step(pos, faces, split=(boundary == 'smooth' and step % 2 == 1))
     return pos, faces
 
 
@@ -285,6 +336,7 @@ def main(argv=None):
     ap.add_argument('-o', '--output', required=True)
     ap.add_argument('--levels', type=int, default=1)
     ap.add_argument('--preprocess', choices=('auto', 'always', 'never'), default='auto')
+    ap.add_argument('--boundary', choices=('paper', 'smooth'), default='paper')
     args = ap.parse_args(argv)
     if args.levels < 0:
         print('ps_reference: --levels must be >= 0', file=sys.stderr)
@@ -292,7 +344,7 @@ def main(argv=None):
     try:
         pos, faces = read_obj(args.input)
         try:
-            pos, faces = run(pos, faces, args.levels, args.preprocess)
+            pos, faces = run(pos, faces, args.levels, args.preprocess, args.boundary)
         except MeshError as exc:
             raise MeshError('%s: %s' % (args.input, exc))
         write_obj(args.output, pos, faces)

@@ -150,11 +150,31 @@ struct Fidelity {
     double meanDistance() const;         // over all samples of both directions
 };
 
-// P-S after `psSteps` (even) steps with `rules` (plus the paired method when the input needs
-// it, through the engine's tables and CPU evaluator) against OpenSubdiv's Catmull-Clark after
-// psSteps / 2 levels, on a checked mesh. samplesPerEdge 0: measures only, no distances.
+// P-S after `psSteps` (even) steps with `rules` and `boundary` (plus the paired method when the
+// input needs it, through the engine's tables and CPU evaluator) against OpenSubdiv's
+// Catmull-Clark after psSteps / 2 levels, on a checked mesh. samplesPerEdge 0: measures only, no distances.
 Fidelity compareWithCatmark(const Mesh& mesh, const Connectivity& connectivity, int psSteps,
-                            Rules rules = Rules::Paper, int samplesPerEdge = 2);
+                            Rules rules = Rules::Paper, int samplesPerEdge = 2,
+                            Boundary boundary = Boundary::Paper);
+
+// ---------------------------------------------------------------------------------------
+// Boundary triangles: the paper never refines the boundary, so the triangles along it grow
+// thin; Boundary::Smooth (beyond the paper) splits boundary edges every second step.
+
+struct BoundaryAspect {
+    std::uint64_t triangles = 0;  // triangles with a boundary edge
+    double worst = 0, median = 0;  // longest edge / height on it (equilateral: 1.155)
+};
+
+// Aspect ratios of the triangles of `faces` that have a boundary edge.
+BoundaryAspect boundaryTriangleAspect(const Faces& faces, const Connectivity& connectivity,
+                                      std::span<const double> positions);
+
+// boundaryTriangleAspect after each of P-S steps 1..psSteps (after the paired method when the
+// mesh needs it) of a checked mesh, positions from the rule oracle in double. Keeps every
+// level: meant for small meshes.
+std::vector<BoundaryAspect> boundaryAspectByLevel(const Mesh& mesh, const Connectivity& connectivity,
+                                                  int psSteps, Boundary boundary, Rules rules = Rules::Paper);
 
 // A PNG (libpng) of `fidelity`: bars of P-S / Catmull-Clark for volume, area and box
 // diagonal, and the histograms of both distance directions relative to the box diagonal,

@@ -38,9 +38,12 @@ inline bool isRetained(VertexKind kind) { return kind != VertexKind::Interior; }
 std::vector<double> pairedPositions(const Faces& faces, std::span<const double> positions);
 
 // One P-S step's positions: V-vertices by the rules above, then F-vertices (face averages).
-// The mesh must be P-S input (quads, triangles only on the boundary).
+// The mesh must be P-S input (quads, triangles only on the boundary). With `splitBoundary`
+// (Boundary::Smooth's split steps): a boundary vertex P between boundary neighbours a, b moves
+// to (a + 6P + b) / 8, and each boundary edge's new point (a + b) / 2 follows, in edge order.
 std::vector<double> psPositions(const Faces& faces, const Connectivity& connectivity,
-                                std::span<const double> positions, Rules rules = Rules::Paper);
+                                std::span<const double> positions, Rules rules = Rules::Paper,
+                                bool splitBoundary = false);
 
 // Positions of hierarchy.levels[k] from those of levels[k-1] (paired method or P-S step).
 std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,

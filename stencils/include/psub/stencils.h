@@ -15,7 +15,8 @@
 namespace psub {
 
 // The per-level table of every step of `hierarchy` (the paired method's rows for the first
-// step when it was preprocessed), with the weights of `rules` (see psub/rules.h).
+// step when it was preprocessed), with the weights of `rules` (see psub/rules.h) and the
+// boundary rules of `hierarchy.boundary`.
 PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy, Rules rules = Rules::Paper);
 
 // Composes the per-level rows into one table from control points to the finest level.
@@ -30,6 +31,7 @@ struct RefineOptions {
     bool factorized = false;                // also build the factorized table
     std::function<void(int level, double seconds)> onLevel;  // progress, after each level
     Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
+    Boundary boundary = Boundary::Paper;    // Smooth: beyond the paper (psub/topology.h)
 };
 
 // Everything the per-frame loop needs, and nothing of the topology.

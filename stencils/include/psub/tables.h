@@ -16,6 +16,9 @@ enum class RowKind : std::uint8_t {
     VertexQuad,    // interior, all quads: P, n edge neighbours, n diagonals; c, d, e
     VertexMixed,   // interior with a triangle: P, n edge neighbours, m diagonals; f, g, h
     FacePolygon,   // the paired method's point of a larger face: all corners, equal weights
+    // Boundary::Smooth's split steps (beyond the paper): the cubic B-spline curve rules.
+    BoundaryVertex,  // P, its two boundary neighbours: (a + 6 P + b) / 8
+    BoundaryEdge,    // the new point of a boundary edge a b: (a + b) / 2
 };
 
 // A run of rows of one kind and shape within one level. Row r of the group has `width`

@@ -144,10 +144,35 @@ Index firstNonPSFace(const Faces& faces, const Connectivity& connectivity);
 bool needsPreprocessing(const Faces& faces, const Connectivity& connectivity, Preprocess mode,
                         const Source& source = {});
 
+// How the boundary is refined (SPEC.md, "[decision] Boundary").
+// Paper (the default): boundary vertices and edges are kept, never refined.
+// Smooth (beyond the paper, never the default): the first P-S step of every pair (P-S steps
+// 1, 3, 5, ...; the paired method is not counted) also splits each boundary edge at a new
+// vertex, with the cubic B-spline curve rules (stencils/), so that after 2k steps the boundary
+// polyline is Catmull-Clark's after k steps. The interior keeps the paper's rules.
+enum class Boundary { Paper, Smooth };
+
+// "paper" or "smooth".
+const char* boundaryName(Boundary boundary);
+
+// True when P-S step `psStep` (1-based, the paired method not counted) splits boundary edges.
+inline bool splitsBoundary(Boundary boundary, int psStep) {
+    return boundary == Boundary::Smooth && psStep >= 1 && psStep % 2 == 1;
+}
+
+// The boundary neighbours of a vertex of kind Boundary (one open fan): `previous` ends the
+// boundary edge coming into v, `next` ends the boundary edge leaving v.
+struct BoundaryNeighbours {
+    Index previous, next;
+};
+BoundaryNeighbours boundaryNeighbours(const Faces& faces, const Connectivity& connectivity, Index v);
+
 // One topological step, shared by the paired method and P-S: vertex v keeps index v, face f
 // gets vertex vertexCount+f; the edges met first in face order, each from the half-edge a->b
 // of face f, become [a, F(g), b, F(f)] (interior, g holds b->a) or [a, b, F(f)] (boundary).
-Faces refineFaces(const Faces& faces, const Connectivity& connectivity);
+// With `splitBoundary`, the i-th boundary edge (in edge order) also gets vertex
+// vertexCount + faceCount + i, M, and becomes the two triangles [a, M, F(f)], [M, b, F(f)].
+Faces refineFaces(const Faces& faces, const Connectivity& connectivity, bool splitBoundary = false);
 
 struct Level {
     Faces faces;
@@ -156,22 +181,28 @@ struct Level {
 
 // One refined level built directly from its parent: the same faces as refineFaces and the
 // same connectivity as buildConnectivity on them, without searching for twins.
-Level refineLevel(const Level& parent);
+Level refineLevel(const Level& parent, bool splitBoundary = false);
 
 // The levels of a refinement: levels[0] is the input; when `preprocessed`, levels[1] is the
 // paired-method quad mesh; every further level is one P-S step.
 struct Hierarchy {
     std::vector<Level> levels;
     bool preprocessed = false;
+    Boundary boundary = Boundary::Paper;
 
     int psSteps() const { return int(levels.size()) - 1 - (preprocessed ? 1 : 0); }
+    // True when levels[k] was built from levels[k-1] with its boundary edges split.
+    bool splitsBoundary(std::size_t k) const {
+        return psub::splitsBoundary(boundary, int(k) - (preprocessed ? 1 : 0));
+    }
     const Level& finest() const { return levels.back(); }
 };
 
 // Refines `steps` P-S steps after optional preprocessing. `onLevel(levelIndex, seconds)` is
 // called after each level is built (progress and timing), when given.
 Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess, int steps,
-                         const std::function<void(int level, double seconds)>& onLevel = {});
+                         const std::function<void(int level, double seconds)>& onLevel = {},
+                         Boundary boundary = Boundary::Paper);
 
 // ---------------------------------------------------------------------------------------
 // Counts and classification
@@ -184,9 +215,16 @@ struct Counts {
 // Counts read off a mesh.
 Counts countMesh(const Faces& faces, const Connectivity& connectivity);
 
-// Closed form: counts after `steps` topological steps (paired or P-S) of a mesh with counts
-// `c`: V' = V + F, E' = 2E, F' = E, boundary edges and triangles' = Eb, quads' = E - Eb.
-Counts countsAfterSteps(const Counts& c, int steps);
+// Counts after one topological step: V' = V + F, E' = 2E, F' = E, boundary edges and
+// triangles' = Eb, quads' = E - Eb; a step that splits the boundary adds Eb to V', E', F'
+// and doubles boundary edges and triangles.
+Counts countsAfterStep(const Counts& c, bool splitBoundary);
+
+// Counts after `steps` topological steps (the paired method, when `preprocessed`, then P-S
+// steps) of a mesh with counts `c`; closed form for Boundary::Paper: V + F + (2^(k-1) - 1) E,
+// 2^k E, 2^(k-1) E. Caller keeps steps < 40.
+Counts countsAfterSteps(const Counts& c, int steps, Boundary boundary = Boundary::Paper,
+                        bool preprocessed = false);
 
 struct VertexClasses {
     std::uint64_t regular = 0, extraordinary = 0, boundary = 0, nonManifold = 0, unused = 0;
