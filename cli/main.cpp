@@ -1,6 +1,7 @@
 // psub: the command-line program. Parses arguments (CLI11) and maps outcomes to exit codes:
 // 0 success, 1 bad input (one line on stderr), 2 usage error.
 #include "analyze.h"
+#include "play.h"
 #include "bench.h"
 #include "commands.h"
 
@@ -242,6 +243,9 @@ int main(int argc, char** argv) {
         "  psub bench /path/to/stanford-bunny.obj data/spot_control_mesh.obj --json bunny.json\n"
         "  psub bench --quick                                # smallest size of each model");
 
+    PlayOptions playOptions;
+    CLI::App* pl = addPlayCommand(app, playOptions);
+
 
     try {
         app.parse(argc, argv);
@@ -274,6 +278,7 @@ int main(int argc, char** argv) {
         if (de->parsed()) return runDemo(demo);
         if (an->parsed()) return runAnalyze(analyze);
         if (co->parsed()) return runCompare(compare);
+        if (pl->parsed()) return runPlay(playOptions);
         if (be->parsed()) {
             benchOptions.dataDir = dataDir();
             for (int i = 0; i < argc; ++i) {

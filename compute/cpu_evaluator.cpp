@@ -41,6 +41,13 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
     return {t == 0 ? 0 : rowAt(total * t / n), t + 1 == n ? level.rowEnd - level.rowBegin : rowAt(total * (t + 1) / n)};
 }
 
+// Threads worth starting for `values` output values: a parallel region and its barriers cost
+// microseconds (milliseconds when the machine is oversubscribed), so small meshes run on one.
+int teamFor(std::uint64_t values, int threads) {
+    constexpr std::uint64_t kValuesPerThread = 32768;
+    return int(std::clamp<std::uint64_t>(values / kValuesPerThread, 1, std::uint64_t(std::max(threads, 1))));
+}
+
 }  // namespace
 
 template <class T>
@@ -67,8 +74,9 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     assert(control.size() >= std::size_t(controlCount()) * width_);
     assert(refined.size() >= std::size_t(refinedCount()) * width_);
     const BufferLayout packed{0, width_, width_};
+    const int team = teamFor(std::uint64_t(refinedCount()) * width_ * (perLevel_.levels.size() > 1 ? 2 : 1), threads_);
     if (form_ == TableForm::Factorized) {
-#pragma omp parallel num_threads(threads_) if (threads_ > 1)
+#pragma omp parallel num_threads(team) if (team > 1)
         {
             const auto [begin, end] = share(factorized_.rowCount());
             evaluateFactorizedRows(factorized_, control.data(), packed, refined.data(), packed,
@@ -81,7 +89,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         std::copy(control.begin(), control.begin() + std::ptrdiff_t(controlCount()) * width_, refined.begin());
         return;
     }
-#pragma omp parallel num_threads(threads_) if (threads_ > 1)
+#pragma omp parallel num_threads(team) if (team > 1)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
@@ -98,7 +106,8 @@ void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) 
     const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
     const T* p = refined.data();
     const std::size_t stride = width_;
-#pragma omp parallel num_threads(threads_) if (threads_ > 1)
+    const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
+#pragma omp parallel num_threads(team) if (team > 1)
     {
         // Newell's normal of each face: twice its area along its normal.
 #pragma omp for schedule(static)

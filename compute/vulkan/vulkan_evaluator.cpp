@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <chrono>
 #include <cstring>
 #include <string>
 
@@ -172,6 +173,7 @@ struct VulkanEvaluator::Impl {
     VkFence fence = VK_NULL_HANDLE;
     VkQueryPool queries = VK_NULL_HANDLE;
     GpuFrameTimes times;
+    HostFrameTimes hostTimes;
 
     Impl(VulkanContext::Impl& c, std::uint32_t w) : context(c), width(w), controls(0), refined(0) {}
     ~Impl();
@@ -195,6 +197,8 @@ struct VulkanEvaluator::Impl {
 
     // Frames.
     VkCommandBuffer frame(unsigned kind);
+    // One frame of `kind`: uploads `control`, submits, waits, copies out what was asked for.
+    void frame(std::span<const float> control, unsigned kind, std::span<float> refinedOut, std::span<float> normalsOut);
     void record(VkCommandBuffer command, unsigned kind);
     void runStages(VkCommandBuffer command, const std::vector<Stage>& stages);
     void submit(unsigned kind);
@@ -704,6 +708,7 @@ std::uint32_t VulkanEvaluator::controlCount() const { return impl_->controls; }
 std::uint32_t VulkanEvaluator::refinedCount() const { return impl_->refined; }
 std::uint32_t VulkanEvaluator::width() const { return impl_->width; }
 GpuFrameTimes VulkanEvaluator::lastFrameTimes() const { return impl_->times; }
+HostFrameTimes VulkanEvaluator::lastHostTimes() const { return impl_->hostTimes; }
 
 std::size_t VulkanEvaluator::dispatchCount(bool withNormals) const {
     std::size_t count = 0;
@@ -724,13 +729,30 @@ std::uint64_t VulkanEvaluator::deviceBytes() const {
     return bytes;
 }
 
+void VulkanEvaluator::evaluateOnDevice(std::span<const float> control, bool withNormals) {
+    Impl& e = *impl_;
+    if (withNormals && !e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    e.frame(control, kStencils | (withNormals ? unsigned(kNormals) : 0u), {}, {});
+}
+
 void VulkanEvaluator::evaluate(std::span<const float> control, std::span<float> refined, std::span<float> normals) {
     Impl& e = *impl_;
+    if (!normals.empty() && !e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    const unsigned kind = kStencils | (refined.empty() ? 0u : unsigned(kReadRefined)) |
+                          (normals.empty() ? 0u : unsigned(kNormals | kReadNormals));
+    e.frame(control, kind, refined, normals);
+}
+
+void VulkanEvaluator::Impl::frame(std::span<const float> control, unsigned kind, std::span<float> refinedOut,
+                                  std::span<float> normalsOut) {
+    Impl& e = *this;
     const std::size_t controlFloats = std::size_t(e.controls) * e.width, refinedFloats = std::size_t(e.refined) * e.width;
     assert(control.size() >= controlFloats);
-    assert(refined.empty() || refined.size() >= refinedFloats);
-    assert(normals.empty() || (e.hasSurface && normals.size() >= 3 * std::size_t(e.refined)));
-    if (!normals.empty() && !e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    assert(refinedOut.empty() || refinedOut.size() >= refinedFloats);
+    assert(normalsOut.empty() || (e.hasSurface && normalsOut.size() >= 3 * std::size_t(e.refined)));
+    using Clock = std::chrono::steady_clock;
+    const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
+    const Clock::time_point start = Clock::now();
     float* upload = static_cast<float*>(e.staging ? e.controlUpload.mapped : e.levels.front().buffer.mapped);
     const std::uint32_t stride = e.levels.front().stride;
     if (stride == e.width) {
@@ -741,15 +763,16 @@ void VulkanEvaluator::evaluate(std::span<const float> control, std::span<float> 
             for (std::uint32_t i = e.width; i < stride; ++i) upload[v * stride + i] = 0.0f;
         }
     }
-    const unsigned kind = kStencils | (refined.empty() ? 0u : unsigned(kReadRefined)) |
-                          (normals.empty() ? 0u : unsigned(kNormals | kReadNormals));
+    const Clock::time_point uploaded = Clock::now();
     e.submit(kind);
-    if (!refined.empty() && refinedFloats)
-        std::memcpy(refined.data(), e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped,
+    const Clock::time_point done = Clock::now();
+    if (!refinedOut.empty() && refinedFloats)
+        std::memcpy(refinedOut.data(), e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped,
                     refinedFloats * sizeof(float));
-    if (!normals.empty() && e.refined)
-        std::memcpy(normals.data(), e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped,
+    if (!normalsOut.empty() && e.refined)
+        std::memcpy(normalsOut.data(), e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped,
                     std::size_t(e.refined) * 3 * sizeof(float));
+    e.hostTimes = {ms(start, uploaded), ms(uploaded, done), ms(done, Clock::now())};
 }
 
 void VulkanEvaluator::normals(std::span<const float> refined, std::span<float> normals) {

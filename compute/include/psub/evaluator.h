@@ -37,8 +37,8 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source,
 
 enum class TableForm { PerLevel, Factorized };
 
-// The per-frame evaluator: control points in, refined vertices out, on `threads` threads
-// (0: all cores). Buffers for the intermediate levels are allocated once, here; a frame
+// The per-frame evaluator: control points in, refined vertices out, on up to `threads`
+// threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the intermediate levels are allocated once, here; a frame
 // allocates nothing. Keeps references to the tables: they must outlive the evaluator.
 template <class T>
 class CpuEvaluator {

@@ -97,6 +97,12 @@ struct GpuFrameTimes {
     double totalMs = 0, levelsMs = 0, normalsMs = 0;
 };
 
+// Host-side time of the last evaluate(): writing the control points into the mapped buffer,
+// submitting and waiting for the fence, copying the results out of mapped memory.
+struct HostFrameTimes {
+    double uploadMs = 0, waitMs = 0, readbackMs = 0;
+};
+
 class VulkanEvaluator {
 public:
     // Uploads the tables (they need not outlive the evaluator). `factorized` may be empty when
@@ -121,10 +127,15 @@ public:
     void evaluate(std::span<const float> control, std::span<float> refined,
                   std::span<float> normals = {});
 
+    // One frame whose results stay on the device (nothing read back): the stencils and, with
+    // `withNormals`, the normals pass. For timing a playback loop that draws on the device.
+    void evaluateOnDevice(std::span<const float> control, bool withNormals);
+
     // CpuEvaluator's contract: normals of the given refined positions (uploaded first).
     void normals(std::span<const float> refined, std::span<float> normals);
 
     GpuFrameTimes lastFrameTimes() const;
+    HostFrameTimes lastHostTimes() const;
     // Dispatches in a frame's command buffer: stencils only, and with normals.
     std::size_t dispatchCount(bool withNormals = false) const;
     // Bytes of device buffers held (tables, levels, normals, staging).

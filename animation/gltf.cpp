@@ -1,0 +1,739 @@
+// readGltf: a glTF 2.0 file (through tinygltf) into a GltfAsset: the welded triangle cage, its
+// skin, morph targets, node hierarchy and clips. Every index and byte range is checked here,
+// so a bad file gives InputError naming the file and the element, never a crash.
+#include "psub/animation.h"
+
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <unordered_map>
+
+namespace psub {
+namespace {
+
+constexpr std::uint32_t kInfluences = 4;
+constexpr std::size_t kMaxUnbackedCount = std::size_t(1) << 24;  // accessors without a buffer view
+
+// The file being read, for error messages.
+struct Context {
+    const std::string& path;
+    const tinygltf::Model& model;
+
+    [[noreturn]] void fail(const std::string& element, const std::string& what) const {
+        throw InputError(path + ": " + element + ": " + what);
+    }
+};
+
+std::string named(const char* kind, std::size_t index) { return kind + (" " + std::to_string(index)); }
+
+std::string primitiveName(std::size_t mesh, std::size_t primitive) {
+    return named("mesh", mesh) + " primitive " + std::to_string(primitive);
+}
+
+// A number as a person writes it: 7, 0.25, nan.
+std::string number(double value) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.9g", value);
+    return text;
+}
+
+std::string oneLine(std::string text) {
+    while (!text.empty() && (text.back() == '\n' || text.back() == '\r' || text.back() == ' '))
+        text.pop_back();
+    for (std::size_t at = text.find('\n'); at != std::string::npos; at = text.find('\n', at))
+        text.replace(at, 1, "; ");
+    std::erase(text, '\r');
+    return text;
+}
+
+// ---------------------------------------------------------------------------------------
+// Accessors
+
+// An accessor's elements converted to double (normalized integers mapped as glTF says).
+struct Values {
+    std::size_t count = 0;
+    std::size_t width = 0;
+    std::vector<double> data;  // count * width
+
+    double at(std::size_t element, std::size_t component) const {
+        return data[element * width + component];
+    }
+};
+
+const char* typeName(int type) {
+    switch (type) {
+        case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+        case TINYGLTF_TYPE_VEC2: return "VEC2";
+        case TINYGLTF_TYPE_VEC3: return "VEC3";
+        case TINYGLTF_TYPE_VEC4: return "VEC4";
+        case TINYGLTF_TYPE_MAT2: return "MAT2";
+        case TINYGLTF_TYPE_MAT3: return "MAT3";
+        case TINYGLTF_TYPE_MAT4: return "MAT4";
+        default: return "unknown";
+    }
+}
+
+template <class T>
+T load(const unsigned char* bytes) {
+    T value;
+    std::memcpy(&value, bytes, sizeof value);
+    return value;
+}
+
+double readComponent(const unsigned char* bytes, int componentType, bool normalized) {
+    switch (componentType) {
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+            const double v = load<std::int8_t>(bytes);
+            return normalized ? std::max(v / 127.0, -1.0) : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+            const double v = load<std::uint8_t>(bytes);
+            return normalized ? v / 255.0 : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+            const double v = load<std::int16_t>(bytes);
+            return normalized ? std::max(v / 32767.0, -1.0) : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            const double v = load<std::uint16_t>(bytes);
+            return normalized ? v / 65535.0 : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_INT: return load<std::int32_t>(bytes);
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+            const double v = load<std::uint32_t>(bytes);
+            return normalized ? v / 4294967295.0 : v;
+        }
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: return load<float>(bytes);
+        default: return load<double>(bytes);  // TINYGLTF_COMPONENT_TYPE_DOUBLE
+    }
+}
+
+std::size_t componentSize(int componentType) {
+    const std::int32_t size = tinygltf::GetComponentSizeInBytes(std::uint32_t(componentType));
+    return size > 0 ? std::size_t(size) : 0;
+}
+
+// `count` elements of `elementSize` bytes, `stride` bytes apart, from `offset` bytes into
+// buffer view `view`: the first element's address, after checking every byte lies in the buffer.
+const unsigned char* viewBytes(const Context& cx, int view, std::size_t offset, std::size_t count,
+                               std::size_t elementSize, std::size_t stride,
+                               const std::string& element) {
+    if (view < 0 || std::size_t(view) >= cx.model.bufferViews.size())
+        cx.fail(element, "buffer view " + std::to_string(view) + " does not exist");
+    const tinygltf::BufferView& bufferView = cx.model.bufferViews[std::size_t(view)];
+    if (bufferView.buffer < 0 || std::size_t(bufferView.buffer) >= cx.model.buffers.size())
+        cx.fail(named("buffer view", std::size_t(view)),
+                "buffer " + std::to_string(bufferView.buffer) + " does not exist");
+    const std::vector<unsigned char>& buffer = cx.model.buffers[std::size_t(bufferView.buffer)].data;
+    if (bufferView.byteOffset > buffer.size() || bufferView.byteLength > buffer.size() - bufferView.byteOffset)
+        cx.fail(named("buffer view", std::size_t(view)),
+                "bytes " + std::to_string(bufferView.byteOffset) + " + " +
+                    std::to_string(bufferView.byteLength) + " overrun buffer " +
+                    std::to_string(bufferView.buffer) + " of " + std::to_string(buffer.size()) + " bytes");
+    const std::size_t available = bufferView.byteLength;
+    const bool fits = count == 0 || (offset <= available && elementSize <= available - offset &&
+                                     (count - 1) <= (available - offset - elementSize) / stride);
+    if (!fits)
+        cx.fail(element, std::to_string(count) + " elements of " + std::to_string(elementSize) +
+                             " bytes from byte " + std::to_string(offset) + " overrun buffer view " +
+                             std::to_string(view) + " of " + std::to_string(available) + " bytes");
+    return buffer.data() + bufferView.byteOffset + offset;
+}
+
+void readElements(const unsigned char* bytes, std::size_t stride, std::size_t count, std::size_t width,
+                  int componentType, bool normalized, double* out) {
+    const std::size_t size = componentSize(componentType);
+    for (std::size_t e = 0; e < count; ++e)
+        for (std::size_t c = 0; c < width; ++c)
+            out[e * width + c] = readComponent(bytes + e * stride + c * size, componentType, normalized);
+}
+
+void applySparse(const Context& cx, const tinygltf::Accessor& accessor, const std::string& element,
+                 Values& values) {
+    const auto& sparse = accessor.sparse;
+    const std::size_t indexSize = componentSize(sparse.indices.componentType);
+    if (sparse.count < 0 || std::size_t(sparse.count) > values.count)
+        cx.fail(element, "sparse count " + std::to_string(sparse.count) + " is out of range");
+    if (indexSize == 0 || sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+        sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0)
+        cx.fail(element, "invalid sparse indices");
+    const std::size_t count = std::size_t(sparse.count);
+    const std::size_t valueSize = componentSize(accessor.componentType) * values.width;
+    const unsigned char* indices = viewBytes(cx, sparse.indices.bufferView, std::size_t(sparse.indices.byteOffset),
+                                             count, indexSize, indexSize, element + " sparse indices");
+    const unsigned char* data = viewBytes(cx, sparse.values.bufferView, std::size_t(sparse.values.byteOffset),
+                                          count, valueSize, valueSize, element + " sparse values");
+    for (std::size_t i = 0; i < count; ++i) {
+        const double target = readComponent(indices + i * indexSize, sparse.indices.componentType, false);
+        if (!(target >= 0 && target < double(values.count)))
+            cx.fail(element, "sparse index " + number(target) + " is out of range");
+        readElements(data + i * valueSize, valueSize, 1, values.width, accessor.componentType,
+                     accessor.normalized, &values.data[std::size_t(target) * values.width]);
+    }
+}
+
+// Accessor `index`, which must have type `type`; `use` says what it is for (in messages).
+Values readAccessor(const Context& cx, int index, int type, const std::string& use) {
+    const std::string element = "accessor " + std::to_string(index) + " (" + use + ")";
+    if (index < 0 || std::size_t(index) >= cx.model.accessors.size()) cx.fail(element, "does not exist");
+    const tinygltf::Accessor& accessor = cx.model.accessors[std::size_t(index)];
+    if (accessor.type != type)
+        cx.fail(element, std::string("type is ") + typeName(accessor.type) + ", expected " + typeName(type));
+    const std::size_t size = componentSize(accessor.componentType);
+    if (size == 0) cx.fail(element, "unknown component type " + std::to_string(accessor.componentType));
+    Values values;
+    values.count = accessor.count;
+    values.width = std::size_t(tinygltf::GetNumComponentsInType(std::uint32_t(type)));
+    const std::size_t elementSize = size * values.width;
+    if (accessor.bufferView < 0) {
+        if (values.count > kMaxUnbackedCount) cx.fail(element, "too many elements without a buffer view");
+        values.data.assign(values.count * values.width, 0.0);
+    } else {
+        const std::size_t viewStride =
+            std::size_t(accessor.bufferView) < cx.model.bufferViews.size()
+                ? cx.model.bufferViews[std::size_t(accessor.bufferView)].byteStride : 0;
+        const std::size_t stride = viewStride != 0 ? viewStride : elementSize;
+        const unsigned char* bytes =
+            viewBytes(cx, accessor.bufferView, accessor.byteOffset, values.count, elementSize, stride, element);
+        values.data.resize(values.count * values.width);
+        readElements(bytes, stride, values.count, values.width, accessor.componentType, accessor.normalized,
+                     values.data.data());
+    }
+    if (accessor.sparse.isSparse) applySparse(cx, accessor, element, values);
+    return values;
+}
+
+void requireFinite(const Context& cx, const Values& values, int index, const std::string& use) {
+    for (std::size_t i = 0; i < values.data.size(); ++i)
+        if (!std::isfinite(values.data[i]))
+            cx.fail("accessor " + std::to_string(index) + " (" + use + ")",
+                    "element " + std::to_string(i / values.width) + " is not finite");
+}
+
+void requireCount(const Context& cx, const Values& values, std::size_t count, int index, const std::string& use) {
+    if (values.count != count)
+        cx.fail("accessor " + std::to_string(index) + " (" + use + ")",
+                "has " + std::to_string(values.count) + " elements, expected " + std::to_string(count));
+}
+
+// ---------------------------------------------------------------------------------------
+// Nodes
+
+std::array<double, 16> identityMatrix() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
+
+template <std::size_t N>
+void copyVector(const Context& cx, const std::vector<double>& from, std::array<double, N>& to,
+                const std::string& element, const char* what) {
+    if (from.empty()) return;
+    if (from.size() != N)
+        cx.fail(element, std::string(what) + " has " + std::to_string(from.size()) + " numbers, expected " +
+                             std::to_string(N));
+    for (std::size_t i = 0; i < N; ++i) {
+        if (!std::isfinite(from[i])) cx.fail(element, std::string(what) + " is not finite");
+        to[i] = from[i];
+    }
+}
+
+GltfNode readNode(const Context& cx, std::size_t index) {
+    const tinygltf::Node& node = cx.model.nodes[index];
+    const std::string element = named("node", index);
+    GltfNode result;
+    result.name = node.name;
+    copyVector(cx, node.translation, result.rest.translation, element, "translation");
+    copyVector(cx, node.rotation, result.rest.rotation, element, "rotation");
+    copyVector(cx, node.scale, result.rest.scale, element, "scale");
+    auto& q = result.rest.rotation;
+    const double length = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (!(length > 0)) cx.fail(element, "rotation is the zero quaternion");
+    for (double& component : q) component /= length;
+    if (!node.matrix.empty()) {
+        std::array<double, 16> matrix{};
+        copyVector(cx, node.matrix, matrix, element, "matrix");
+        result.matrix = matrix;
+    }
+    return result;
+}
+
+// Parents from the children lists, then an order with every node after its parent.
+void linkNodes(const Context& cx, GltfAsset& asset) {
+    const std::size_t count = cx.model.nodes.size();
+    for (std::size_t n = 0; n < count; ++n)
+        for (int child : cx.model.nodes[n].children) {
+            if (child < 0 || std::size_t(child) >= count)
+                cx.fail(named("node", n), "child " + std::to_string(child) + " does not exist");
+            if (asset.nodes[std::size_t(child)].parent >= 0 || std::size_t(child) == n)
+                cx.fail(named("node", std::size_t(child)), "has more than one parent or is its own child");
+            asset.nodes[std::size_t(child)].parent = std::int32_t(n);
+        }
+    for (std::size_t n = 0; n < count; ++n)
+        if (asset.nodes[n].parent < 0) asset.nodeOrder.push_back(std::uint32_t(n));
+    for (std::size_t next = 0; next < asset.nodeOrder.size(); ++next)  // breadth first
+        for (int child : cx.model.nodes[asset.nodeOrder[next]].children)
+            asset.nodeOrder.push_back(std::uint32_t(child));
+    if (asset.nodeOrder.size() != count) cx.fail("nodes", "the hierarchy has a cycle");
+}
+
+// The node whose mesh is the cage: the first with a mesh and a skin, else the first with a mesh.
+std::size_t findMeshNode(const Context& cx) {
+    const auto& nodes = cx.model.nodes;
+    auto found = std::find_if(nodes.begin(), nodes.end(), [](const auto& n) { return n.mesh >= 0 && n.skin >= 0; });
+    if (found == nodes.end())
+        found = std::find_if(nodes.begin(), nodes.end(), [](const auto& n) { return n.mesh >= 0; });
+    if (found == nodes.end())
+        cx.fail("meshes", cx.model.meshes.empty() ? "the file has no mesh"
+                                                  : "no node instantiates any of the file's meshes");
+    const std::size_t index = std::size_t(found - nodes.begin());
+    if (std::size_t(found->mesh) >= cx.model.meshes.size())
+        cx.fail(named("node", index), "mesh " + std::to_string(found->mesh) + " does not exist");
+    if (found->skin >= 0 && std::size_t(found->skin) >= cx.model.skins.size())
+        cx.fail(named("node", index), "skin " + std::to_string(found->skin) + " does not exist");
+    return index;
+}
+
+// ---------------------------------------------------------------------------------------
+// Skin
+
+GltfSkin readSkin(const Context& cx, std::size_t index) {
+    const tinygltf::Skin& skin = cx.model.skins[index];
+    const std::string element = named("skin", index);
+    if (skin.joints.empty()) cx.fail(element, "has no joints");
+    if (skin.joints.size() > std::numeric_limits<std::uint16_t>::max())
+        cx.fail(element, "has more than 65535 joints");
+    GltfSkin result;
+    for (int node : skin.joints) {
+        if (node < 0 || std::size_t(node) >= cx.model.nodes.size())
+            cx.fail(element, "joint node " + std::to_string(node) + " does not exist");
+        result.jointNodes.push_back(std::uint32_t(node));
+    }
+    result.inverseBindMatrices.assign(skin.joints.size(), identityMatrix());
+    if (skin.inverseBindMatrices >= 0) {
+        const std::string use = element + " inverseBindMatrices";
+        const Values matrices = readAccessor(cx, skin.inverseBindMatrices, TINYGLTF_TYPE_MAT4, use);
+        requireFinite(cx, matrices, skin.inverseBindMatrices, use);
+        if (matrices.count < skin.joints.size())
+            cx.fail(element, "has " + std::to_string(skin.joints.size()) + " joints but " +
+                                 std::to_string(matrices.count) + " inverse bind matrices");
+        for (std::size_t j = 0; j < skin.joints.size(); ++j)
+            std::copy_n(&matrices.data[16 * j], 16, result.inverseBindMatrices[j].begin());
+    }
+    return result;
+}
+
+// ---------------------------------------------------------------------------------------
+// Primitives and welding
+
+// One glTF vertex's data, as compared for welding.
+struct VertexData {
+    std::array<double, 3> position{};
+    std::array<std::uint16_t, kInfluences> joints{};
+    std::array<float, kInfluences> weights{};
+    std::vector<float> deltas;  // 3 per morph target
+};
+
+// Merges glTF vertices into cage vertices: equal data, one cage vertex.
+class Welder {
+public:
+    explicit Welder(std::uint32_t targetCount) : targetCount_(targetCount) {}
+
+    Index add(const VertexData& vertex) {
+        key_.clear();
+        append(vertex.position.data(), sizeof vertex.position);
+        append(vertex.joints.data(), sizeof vertex.joints);
+        append(vertex.weights.data(), sizeof vertex.weights);
+        append(vertex.deltas.data(), vertex.deltas.size() * sizeof(float));
+        const auto [slot, inserted] = cageOf_.try_emplace(key_, Index(positions_.size() / 3));
+        if (inserted) {
+            positions_.insert(positions_.end(), vertex.position.begin(), vertex.position.end());
+            joints_.insert(joints_.end(), vertex.joints.begin(), vertex.joints.end());
+            weights_.insert(weights_.end(), vertex.weights.begin(), vertex.weights.end());
+            deltas_.insert(deltas_.end(), vertex.deltas.begin(), vertex.deltas.end());
+        }
+        return slot->second;
+    }
+
+    Index count() const { return Index(positions_.size() / 3); }
+
+    void finish(GltfAsset& asset) {
+        const std::size_t vertices = count();
+        asset.mesh.faces.vertexCount = Index(vertices);
+        asset.mesh.positions = std::move(positions_);
+        if (asset.skin) {
+            asset.skin->joints = std::move(joints_);
+            asset.skin->weights = std::move(weights_);
+        }
+        // Vertex-major to target-major.
+        asset.morphs.deltas.resize(deltas_.size());
+        for (std::size_t v = 0; v < vertices; ++v)
+            for (std::size_t t = 0; t < targetCount_; ++t)
+                for (std::size_t axis = 0; axis < 3; ++axis)
+                    asset.morphs.deltas[(t * vertices + v) * 3 + axis] = deltas_[(v * targetCount_ + t) * 3 + axis];
+    }
+
+private:
+    void append(const void* bytes, std::size_t size) { key_.append(static_cast<const char*>(bytes), size); }
+
+    std::uint32_t targetCount_;
+    std::string key_;
+    std::unordered_map<std::string, Index> cageOf_;
+    std::vector<double> positions_;
+    std::vector<std::uint16_t> joints_;
+    std::vector<float> weights_;
+    std::vector<float> deltas_;
+};
+
+int attribute(const tinygltf::Primitive& primitive, const char* name) {
+    const auto found = primitive.attributes.find(name);
+    return found == primitive.attributes.end() ? -1 : found->second;
+}
+
+// Corner lists (3 per triangle, local vertex numbers) of a primitive of `vertexCount` vertices.
+std::vector<std::uint32_t> readTriangles(const Context& cx, const tinygltf::Primitive& primitive,
+                                         std::size_t vertexCount, const std::string& element) {
+    std::vector<std::uint32_t> indices;
+    if (primitive.indices >= 0) {
+        const std::string use = element + " indices";
+        const Values values = readAccessor(cx, primitive.indices, TINYGLTF_TYPE_SCALAR, use);
+        for (std::size_t i = 0; i < values.count; ++i) {
+            const double index = values.data[i];
+            if (!(index >= 0 && index < double(vertexCount) && index == std::floor(index)))
+                cx.fail("accessor " + std::to_string(primitive.indices) + " (" + use + ")",
+                        "index " + std::to_string(i) + " is " + number(index) + ", out of range (" +
+                            std::to_string(vertexCount) + " vertices)");
+            indices.push_back(std::uint32_t(index));
+        }
+    } else {
+        for (std::size_t v = 0; v < vertexCount; ++v) indices.push_back(std::uint32_t(v));
+    }
+    const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+        cx.fail(element, "mode " + std::to_string(mode) + " is points or lines; the cage needs triangles");
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+        if (indices.size() % 3 != 0)
+            cx.fail(element, std::to_string(indices.size()) + " indices are not a whole number of triangles");
+        return indices;
+    }
+    std::vector<std::uint32_t> corners;
+    for (std::size_t i = 0; i + 2 < indices.size(); ++i) {
+        if (mode == TINYGLTF_MODE_TRIANGLE_STRIP)  // glTF: {i, i + (1 + i % 2), i + (2 - i % 2)}
+            corners.insert(corners.end(), {indices[i], indices[i + 1 + i % 2], indices[i + 2 - i % 2]});
+        else  // TRIANGLE_FAN, glTF: {i + 1, i + 2, 0}
+            corners.insert(corners.end(), {indices[i + 1], indices[i + 2], indices[0]});
+    }
+    return corners;
+}
+
+// JOINTS_0 / WEIGHTS_0 of one vertex into `vertex`: checked, zero-weight slots on joint 0, normalised.
+void skinVertex(const Context& cx, const Values& joints, const Values& weights, std::size_t v,
+                std::size_t jointCount, const std::string& jointsUse, const std::string& weightsUse,
+                VertexData& vertex) {
+    double sum = 0;
+    for (std::size_t k = 0; k < kInfluences; ++k) {
+        const double weight = weights.at(v, k), joint = joints.at(v, k);
+        if (!std::isfinite(weight) || weight < 0)
+            cx.fail(weightsUse, "vertex " + std::to_string(v) + ": weight " + number(weight) +
+                                    " is negative or not finite");
+        if (weight > 0 && !(joint >= 0 && joint < double(jointCount) && joint == std::floor(joint)))
+            cx.fail(jointsUse, "vertex " + std::to_string(v) + ": joint " + number(joint) +
+                                   " is out of range (the skin has " + std::to_string(jointCount) + " joints)");
+        vertex.joints[k] = weight > 0 ? std::uint16_t(joint) : 0;
+        sum += weight;
+    }
+    if (!(sum > 0)) cx.fail(weightsUse, "vertex " + std::to_string(v) + ": the weights sum to 0");
+    for (std::size_t k = 0; k < kInfluences; ++k) vertex.weights[k] = float(weights.at(v, k) / sum);
+}
+
+struct PrimitiveAttributes {
+    Values positions, joints, weights;
+    std::vector<Values> targets;  // POSITION deltas per morph target (empty Values: none)
+};
+
+std::string accessorUse(int index, const std::string& use) {
+    return "accessor " + std::to_string(index) + " (" + use + ")";
+}
+
+PrimitiveAttributes readAttributes(const Context& cx, const tinygltf::Primitive& primitive,
+                                   const std::string& element, const GltfAsset& asset) {
+    PrimitiveAttributes attributes;
+    const int position = attribute(primitive, "POSITION");
+    if (position < 0) cx.fail(element, "has no POSITION attribute");
+    attributes.positions = readAccessor(cx, position, TINYGLTF_TYPE_VEC3, element + " POSITION");
+    requireFinite(cx, attributes.positions, position, element + " POSITION");
+    const std::size_t count = attributes.positions.count;
+    if (asset.skin) {
+        const int joints = attribute(primitive, "JOINTS_0"), weights = attribute(primitive, "WEIGHTS_0");
+        if (joints < 0 || weights < 0) cx.fail(element, "the mesh is skinned but this primitive has no JOINTS_0/WEIGHTS_0");
+        attributes.joints = readAccessor(cx, joints, TINYGLTF_TYPE_VEC4, element + " JOINTS_0");
+        attributes.weights = readAccessor(cx, weights, TINYGLTF_TYPE_VEC4, element + " WEIGHTS_0");
+        requireCount(cx, attributes.joints, count, joints, element + " JOINTS_0");
+        requireCount(cx, attributes.weights, count, weights, element + " WEIGHTS_0");
+    }
+    if (primitive.targets.size() != asset.morphs.targetCount)
+        cx.fail(element, "has " + std::to_string(primitive.targets.size()) + " morph targets, primitive 0 has " +
+                             std::to_string(asset.morphs.targetCount));
+    for (std::size_t t = 0; t < primitive.targets.size(); ++t) {
+        const auto found = primitive.targets[t].find("POSITION");
+        attributes.targets.emplace_back();
+        if (found == primitive.targets[t].end()) continue;
+        const std::string use = element + " target " + std::to_string(t) + " POSITION";
+        attributes.targets.back() = readAccessor(cx, found->second, TINYGLTF_TYPE_VEC3, use);
+        requireFinite(cx, attributes.targets.back(), found->second, use);
+        requireCount(cx, attributes.targets.back(), count, found->second, use);
+    }
+    return attributes;
+}
+
+// Welds one primitive's vertices into the cage and adds its triangles.
+void addPrimitive(const Context& cx, std::size_t meshIndex, std::size_t index, Welder& welder,
+                  GltfAsset& asset, std::size_t& degenerate) {
+    const tinygltf::Primitive& primitive = cx.model.meshes[meshIndex].primitives[index];
+    const std::string element = primitiveName(meshIndex, index);
+    const PrimitiveAttributes attributes = readAttributes(cx, primitive, element, asset);
+    const std::size_t count = attributes.positions.count;
+    const std::vector<std::uint32_t> corners = readTriangles(cx, primitive, count, element);
+    const std::string jointsUse = accessorUse(attribute(primitive, "JOINTS_0"), element + " JOINTS_0");
+    const std::string weightsUse = accessorUse(attribute(primitive, "WEIGHTS_0"), element + " WEIGHTS_0");
+
+    asset.primitiveFirstVertex.push_back(Index(asset.cageVertexOf.size()));
+    const std::size_t first = asset.cageVertexOf.size();
+    VertexData vertex;
+    vertex.deltas.resize(3 * std::size_t(asset.morphs.targetCount));
+    for (std::size_t v = 0; v < count; ++v) {
+        for (std::size_t axis = 0; axis < 3; ++axis) vertex.position[axis] = attributes.positions.at(v, axis);
+        if (asset.skin)
+            skinVertex(cx, attributes.joints, attributes.weights, v, asset.skin->jointNodes.size(), jointsUse,
+                       weightsUse, vertex);
+        for (std::size_t t = 0; t < attributes.targets.size(); ++t)
+            for (std::size_t axis = 0; axis < 3; ++axis)
+                vertex.deltas[3 * t + axis] =
+                    attributes.targets[t].data.empty() ? 0.0f : float(attributes.targets[t].at(v, axis));
+        asset.cageVertexOf.push_back(welder.add(vertex));
+    }
+    for (std::size_t c = 0; c < corners.size(); c += 3) {
+        const std::array<Index, 3> face = {asset.cageVertexOf[first + corners[c]],
+                                           asset.cageVertexOf[first + corners[c + 1]],
+                                           asset.cageVertexOf[first + corners[c + 2]]};
+        if (face[0] == face[1] || face[1] == face[2] || face[2] == face[0]) ++degenerate;
+        else asset.mesh.faces.addFace(face);
+    }
+}
+
+// Default morph weights: the node's, else the mesh's, else zeros.
+void readMorphDefaults(const Context& cx, const tinygltf::Node& node, std::size_t nodeIndex,
+                       const tinygltf::Mesh& mesh, std::size_t meshIndex, GltfMorphs& morphs) {
+    morphs.targetCount = mesh.primitives.empty() ? 0 : std::uint32_t(mesh.primitives[0].targets.size());
+    const bool fromNode = !node.weights.empty();
+    const std::vector<double>& weights = fromNode ? node.weights : mesh.weights;
+    const std::string element = fromNode ? named("node", nodeIndex) : named("mesh", meshIndex);
+    morphs.defaultWeights.assign(morphs.targetCount, 0.0f);
+    if (weights.empty()) return;
+    if (weights.size() != morphs.targetCount)
+        cx.fail(element, "has " + std::to_string(weights.size()) + " morph weights for " +
+                             std::to_string(morphs.targetCount) + " targets");
+    for (std::size_t t = 0; t < weights.size(); ++t) {
+        if (!std::isfinite(weights[t])) cx.fail(element, "morph weight " + std::to_string(t) + " is not finite");
+        morphs.defaultWeights[t] = float(weights[t]);
+    }
+}
+
+void readCage(const Context& cx, GltfAsset& asset) {
+    const tinygltf::Node& node = cx.model.nodes[asset.meshNode];
+    const std::size_t meshIndex = std::size_t(node.mesh);
+    const tinygltf::Mesh& mesh = cx.model.meshes[meshIndex];
+    if (mesh.primitives.empty()) cx.fail(named("mesh", meshIndex), "has no primitives");
+    if (node.skin >= 0) asset.skin = readSkin(cx, std::size_t(node.skin));
+    readMorphDefaults(cx, node, asset.meshNode, mesh, meshIndex, asset.morphs);
+    Welder welder(asset.morphs.targetCount);
+    std::size_t degenerate = 0;
+    bool moreInfluences = false;
+    for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
+        addPrimitive(cx, meshIndex, p, welder, asset, degenerate);
+        moreInfluences = moreInfluences || attribute(mesh.primitives[p], "JOINTS_1") >= 0;
+    }
+    welder.finish(asset);
+    asset.mesh.source.path = cx.path;
+    if (asset.mesh.faces.faceCount() == 0) cx.fail(named("mesh", meshIndex), "has no triangles");
+    if (degenerate > 0)
+        asset.warnings.push_back(cx.path + ": " + named("mesh", meshIndex) + ": dropped " + std::to_string(degenerate) +
+                                 " degenerate triangles (a corner repeated after welding)");
+    if (moreInfluences && asset.skin)
+        asset.warnings.push_back(cx.path + ": " + named("mesh", meshIndex) +
+                                 ": JOINTS_1/WEIGHTS_1 ignored (at most 4 influences; weights renormalised)");
+}
+
+// ---------------------------------------------------------------------------------------
+// Clips
+
+struct PathInfo {
+    GltfPath path;
+    int type;
+};
+
+std::optional<PathInfo> pathOf(const std::string& name) {
+    if (name == "translation") return PathInfo{GltfPath::Translation, TINYGLTF_TYPE_VEC3};
+    if (name == "rotation") return PathInfo{GltfPath::Rotation, TINYGLTF_TYPE_VEC4};
+    if (name == "scale") return PathInfo{GltfPath::Scale, TINYGLTF_TYPE_VEC3};
+    if (name == "weights") return PathInfo{GltfPath::Weights, TINYGLTF_TYPE_SCALAR};
+    return std::nullopt;
+}
+
+std::optional<GltfInterpolation> interpolationOf(const std::string& name) {
+    if (name == "LINEAR" || name.empty()) return GltfInterpolation::Linear;
+    if (name == "STEP") return GltfInterpolation::Step;
+    if (name == "CUBICSPLINE") return GltfInterpolation::CubicSpline;
+    return std::nullopt;
+}
+
+std::vector<float> toFloats(const Values& values) {
+    std::vector<float> result(values.data.size());
+    std::transform(values.data.begin(), values.data.end(), result.begin(), [](double v) { return float(v); });
+    return result;
+}
+
+std::vector<float> readTimes(const Context& cx, int index, const std::string& use) {
+    const Values times = readAccessor(cx, index, TINYGLTF_TYPE_SCALAR, use);
+    requireFinite(cx, times, index, use);
+    if (times.count == 0) cx.fail(accessorUse(index, use), "has no keyframes");
+    std::vector<float> result = toFloats(times);
+    for (std::size_t k = 1; k < result.size(); ++k)
+        if (result[k] < result[k - 1])
+            cx.fail(accessorUse(index, use), "keyframe " + std::to_string(k) + " comes before keyframe " +
+                                                 std::to_string(k - 1));
+    return result;
+}
+
+// The morph target count that a weights channel on `node` animates.
+std::uint32_t weightsWidth(const Context& cx, std::size_t node, const std::string& element) {
+    const int mesh = cx.model.nodes[node].mesh;
+    if (mesh < 0 || std::size_t(mesh) >= cx.model.meshes.size())
+        cx.fail(element, "animates the morph weights of node " + std::to_string(node) + ", which has no mesh");
+    const auto& primitives = cx.model.meshes[std::size_t(mesh)].primitives;
+    return primitives.empty() ? 0 : std::uint32_t(primitives[0].targets.size());
+}
+
+// Channel `c` of animation `a`, or nullopt for a channel glTF says to ignore.
+std::optional<GltfChannel> readChannel(const Context& cx, const GltfAsset& asset, std::size_t a, std::size_t c,
+                                       std::vector<std::string>& warnings) {
+    const tinygltf::Animation& animation = cx.model.animations[a];
+    const tinygltf::AnimationChannel& channel = animation.channels[c];
+    const std::string element = named("animation", a) + " '" + animation.name + "' channel " + std::to_string(c);
+    const std::optional<PathInfo> path = pathOf(channel.target_path);
+    if (channel.target_node < 0 || !path) {
+        warnings.push_back(cx.path + ": " + element + ": ignored (no target node, or path '" +
+                           channel.target_path + "')");
+        return std::nullopt;
+    }
+    if (std::size_t(channel.target_node) >= cx.model.nodes.size())
+        cx.fail(element, "node " + std::to_string(channel.target_node) + " does not exist");
+    if (channel.sampler < 0 || std::size_t(channel.sampler) >= animation.samplers.size())
+        cx.fail(element, "sampler " + std::to_string(channel.sampler) + " does not exist");
+    GltfChannel result;
+    result.node = std::uint32_t(channel.target_node);
+    result.path = path->path;
+    if (result.path != GltfPath::Weights && asset.nodes[result.node].matrix)
+        cx.fail(element, "animates node " + std::to_string(result.node) +
+                             ", which has a matrix (glTF allows only translation/rotation/scale there)");
+    const tinygltf::AnimationSampler& sampler = animation.samplers[std::size_t(channel.sampler)];
+    const std::string samplerName = named("animation", a) + " '" + animation.name + "' sampler " +
+                                    std::to_string(channel.sampler);
+    const std::optional<GltfInterpolation> interpolation = interpolationOf(sampler.interpolation);
+    if (!interpolation) cx.fail(samplerName, "unknown interpolation '" + sampler.interpolation + "'");
+    result.interpolation = *interpolation;
+    result.width = result.path == GltfPath::Weights ? weightsWidth(cx, result.node, element)
+                   : result.path == GltfPath::Rotation ? 4u : 3u;
+    if (result.width == 0) {
+        warnings.push_back(cx.path + ": " + element + ": ignored (the mesh has no morph targets)");
+        return std::nullopt;
+    }
+    result.times = readTimes(cx, sampler.input, samplerName + " input");
+    const Values values = readAccessor(cx, sampler.output, path->type, samplerName + " output");
+    requireFinite(cx, values, sampler.output, samplerName + " output");
+    const std::size_t perKey = (result.interpolation == GltfInterpolation::CubicSpline ? 3 : 1) *
+                               (result.path == GltfPath::Weights ? result.width : 1);
+    requireCount(cx, values, result.times.size() * perKey, sampler.output, samplerName + " output");
+    result.values = toFloats(values);
+    return result;
+}
+
+GltfClip readClip(const Context& cx, const GltfAsset& asset, std::size_t a, std::vector<std::string>& warnings) {
+    const tinygltf::Animation& animation = cx.model.animations[a];
+    GltfClip clip;
+    clip.name = animation.name;
+    for (std::size_t c = 0; c < animation.channels.size(); ++c) {
+        std::optional<GltfChannel> channel = readChannel(cx, asset, a, c, warnings);
+        if (!channel) continue;
+        clip.duration = std::max(clip.duration, double(channel->times.back()));
+        clip.channels.push_back(std::move(*channel));
+    }
+    return clip;
+}
+
+// ---------------------------------------------------------------------------------------
+// The file
+
+std::vector<unsigned char> readBytes(const std::string& path) {
+    std::error_code error;
+    if (std::filesystem::is_directory(path, error)) throw InputError(path + ": is a directory, not a glTF file");
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path + ": cannot open the file");
+    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) throw InputError(path + ": cannot read the file");
+    return bytes;
+}
+
+// tinygltf decodes images by default; the cage needs none.
+bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
+               void*) {
+    return true;
+}
+
+tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& warnings) {
+    const std::vector<unsigned char> bytes = readBytes(path);
+    if (bytes.empty()) throw InputError(path + ": the file is empty");
+    if (bytes.size() > UINT_MAX) throw InputError(path + ": the file is larger than 4 GiB");
+    tinygltf::TinyGLTF loader;
+    loader.SetImageLoader(&skipImage, nullptr);
+    tinygltf::Model model;
+    std::string error, warning;
+    const std::string baseDir = std::filesystem::path(path).parent_path().string();
+    const unsigned length = unsigned(bytes.size());
+    const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, bytes.data(), length, baseDir)
+                           : loader.LoadASCIIFromString(&model, &error, &warning,
+                                                        reinterpret_cast<const char*>(bytes.data()), length, baseDir);
+    if (!ok)
+        throw InputError(path + ": not a valid glTF " + (binary ? "binary" : "file") + ": " +
+                         (error.empty() ? std::string("unknown error") : oneLine(error)));
+    if (!warning.empty()) warnings.push_back(path + ": " + oneLine(warning));
+    return model;
+}
+
+}  // namespace
+
+GltfAsset readGltf(const std::string& path) {
+    GltfAsset asset;
+    const tinygltf::Model model = parseFile(path, asset.warnings);
+    const Context cx{path, model};
+    for (std::size_t n = 0; n < model.nodes.size(); ++n) asset.nodes.push_back(readNode(cx, n));
+    linkNodes(cx, asset);
+    asset.meshNode = std::uint32_t(findMeshNode(cx));
+    readCage(cx, asset);
+    for (std::size_t a = 0; a < model.animations.size(); ++a)
+        asset.clips.push_back(readClip(cx, asset, a, asset.warnings));
+    return asset;
+}
+
+std::optional<std::size_t> findClip(const GltfAsset& asset, std::string_view name) {
+    for (std::size_t c = 0; c < asset.clips.size(); ++c)
+        if (asset.clips[c].name == name) return c;
+    return std::nullopt;
+}
+
+}  // namespace psub

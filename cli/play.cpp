@@ -1,0 +1,510 @@
+// psub play: the real-time playback loop. Loads the control mesh and its animation, refines
+// once, creates every evaluator, renderer and buffer up front, then per frame: deform, upload,
+// evaluate, normals, (render, readback); each stage timed, median / p95 / max reported.
+// The frame loop allocates nothing and creates no Vulkan object.
+#include "play.h"
+
+#include "psub/animation.h"
+#include "psub/evaluator.h"
+#include "psub/rules.h"
+#include "psub/stencils.h"
+#if PSUB_HAVE_VULKAN
+#include "psub/vulkan_evaluator.h"
+#endif
+#if PSUB_HAVE_RENDER
+#include "psub/render.h"
+#endif
+
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+
+namespace psub::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msBetween(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+// Beyond this many refined faces playback is refused (memory; nobody plays it in real time).
+constexpr std::uint64_t kMaxFaces = 64ull << 20;
+
+// ---------------------------------------------------------------------------------------
+// The animated control mesh
+
+struct Animated {
+    Mesh mesh;
+    CheckedMesh checked;
+    std::unique_ptr<GltfAsset> asset;  // the player keeps a reference: heap, never moved
+    std::unique_ptr<GltfPlayer> player;
+    std::size_t clip = 0;
+    std::optional<Procedural> procedural;
+    RestBounds bounds;
+    std::vector<float> rest;  // the pose procedural deformers start from
+    std::string name;         // what plays, for the report
+    double period = kProceduralPeriod;
+
+    // The control points at `seconds`; allocates nothing.
+    void pose(double seconds, std::span<float> out) {
+        if (procedural) deformProcedural(*procedural, bounds, rest, seconds, out);
+        else player->pose(clip, seconds, out);
+    }
+};
+
+bool isGltf(const std::string& path) {
+    const std::string extension = std::filesystem::path(path).extension().string();
+    return extension == ".gltf" || extension == ".glb" || extension == ".GLTF" || extension == ".GLB";
+}
+
+void printWarnings(const std::vector<std::string>& warnings) {
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+}
+
+std::string clipList(const GltfAsset& asset) {
+    std::string names;
+    for (const GltfClip& clip : asset.clips) names += (names.empty() ? "'" : ", '") + clip.name + "'";
+    return names.empty() ? "none" : names;
+}
+
+Animated loadAnimated(const PlayOptions& o) {
+    Animated a;
+    std::vector<std::string> warnings;
+    if (isGltf(o.input)) {
+        a.asset = std::make_unique<GltfAsset>(readGltf(o.input));
+        a.mesh = a.asset->mesh;
+        warnings = a.asset->warnings;
+        a.player = std::make_unique<GltfPlayer>(*a.asset);
+        a.rest.resize(3 * a.player->vertexCount());
+        a.player->staticPose(a.rest);
+        const std::string wanted = o.animation.empty() && !a.asset->clips.empty() ? a.asset->clips[0].name : o.animation;
+        if (auto clip = findClip(*a.asset, wanted)) {
+            a.clip = *clip;
+            a.period = std::max(a.asset->clips[*clip].duration, 1e-3);
+            a.name = "glTF clip '" + wanted + "'";
+        } else if (auto procedural = parseProcedural(wanted)) {
+            a.procedural = procedural;
+        } else {
+            throw InputError(o.input + ": no animation '" + wanted + "' (clips: " + clipList(*a.asset) +
+                             "; procedural: wave, twist, bend)");
+        }
+    } else {
+        a.mesh = readObj(o.input, &warnings);
+        a.rest.assign(a.mesh.positions.begin(), a.mesh.positions.end());
+        const std::string wanted = o.animation.empty() ? "wave" : o.animation;
+        a.procedural = parseProcedural(wanted);
+        if (!a.procedural)
+            throw InputError(o.input + ": no animation '" + wanted +
+                             "': an OBJ file plays wave, twist or bend (glTF files also play their clips)");
+    }
+    if (a.procedural) a.name = std::string(proceduralName(*a.procedural)) + " (procedural)";
+    a.checked = checkMesh(a.mesh);
+    warnings.insert(warnings.end(), a.checked.warnings.begin(), a.checked.warnings.end());
+    printWarnings(warnings);
+    a.bounds = restBounds(a.rest);
+    return a;
+}
+
+// ---------------------------------------------------------------------------------------
+// Per-stage timing
+
+enum Stage { Deform, Upload, Evaluate, Normals, Render, Readback, kStageCount };
+constexpr std::array<const char*, kStageCount> kStageNames = {"deform", "upload", "evaluate",
+                                                              "normals", "render", "readback"};
+
+struct Summary {
+    double median = 0, p95 = 0, max = 0;
+};
+
+Summary summarize(std::vector<double> values) {
+    if (values.empty()) return {};
+    std::sort(values.begin(), values.end());
+    const auto at = [&](double q) { return values[std::min(values.size() - 1, std::size_t(q * double(values.size() - 1) + 0.5))]; };
+    return {at(0.5), at(0.95), values.back()};
+}
+
+struct Timings {
+    std::array<std::vector<double>, kStageCount> stages;
+    std::vector<double> frames;
+    double writeMs = 0;  // PNG files, outside the frame time
+
+    explicit Timings(int count) {
+        for (auto& stage : stages) stage.reserve(std::size_t(count));
+        frames.reserve(std::size_t(count));
+    }
+};
+
+// ---------------------------------------------------------------------------------------
+// Verification against the rule oracle
+
+struct Verifier {
+    Hierarchy hierarchy;
+    Rules rules;
+    std::vector<double> control;  // scratch, sized once
+    int frames = 0;
+    double maxError = 0;  // relative to the box diagonal of the frame's control points
+
+    // Throws InputError naming the frame and vertex when `refined` is not the oracle's result.
+    void check(int frame, std::span<const float> pose, std::span<const float> refined) {
+        control.assign(pose.begin(), pose.end());
+        const std::vector<double> expected = refinePositions(hierarchy, control, rules);
+        double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+        for (std::size_t i = 0; i < control.size(); ++i) {
+            lo[i % 3] = std::min(lo[i % 3], control[i]);
+            hi[i % 3] = std::max(hi[i % 3], control[i]);
+        }
+        const double scale = std::max(1e-30, std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]));
+        for (std::size_t i = 0; i < expected.size(); ++i) {
+            const double error = std::abs(double(refined[i]) - expected[i]) / scale;
+            maxError = std::max(maxError, error);
+            if (!(error <= 1e-5))
+                throw InputError("--verify: frame " + std::to_string(frame) + ", refined vertex " + std::to_string(i / 3 + 1) +
+                                 ": " + std::to_string(refined[i]) + " where refining from scratch gives " +
+                                 std::to_string(expected[i]) + " (relative error " + std::to_string(error) + " > 1e-5)");
+        }
+        ++frames;
+    }
+};
+
+// ---------------------------------------------------------------------------------------
+// The loop
+
+struct Playback {
+    Playback(const PlayOptions& options, Animated& a) : o(options), animated(a) {}
+
+    const PlayOptions& o;
+    Animated& animated;
+    Refinement refinement;
+    std::vector<float> control, refined, normals;
+    std::unique_ptr<CpuEvaluator<float>> cpu;
+#if PSUB_HAVE_VULKAN
+    std::unique_ptr<VulkanContext> context;
+    std::unique_ptr<VulkanEvaluator> gpu;
+#endif
+#if PSUB_HAVE_RENDER
+    std::unique_ptr<Renderer> renderer;
+    Camera camera;
+    Image image;
+#endif
+    std::optional<Verifier> verifier;
+    std::string device;
+
+    bool rendering() const { return !o.renderDir.empty(); }
+    bool needHostResults() const { return rendering() || verifier.has_value(); }
+
+    void frame(int index, Timings& t);
+    void draw(int index, Timings& t);
+};
+
+void Playback::frame(int index, Timings& t) {
+    const Clock::time_point start = Clock::now();
+    animated.pose(double(index) / o.animationFps, control);
+    const Clock::time_point posed = Clock::now();
+    double stage[kStageCount] = {msBetween(start, posed), 0, 0, 0, 0, 0};
+    if (cpu) {
+        cpu->evaluate(control, refined);
+        const Clock::time_point evaluated = Clock::now();
+        cpu->normals(refined, normals);
+        stage[Evaluate] = msBetween(posed, evaluated);
+        stage[Normals] = msBetween(evaluated, Clock::now());
+    }
+#if PSUB_HAVE_VULKAN
+    if (gpu) {
+        if (needHostResults()) gpu->evaluate(control, refined, normals);
+        else gpu->evaluateOnDevice(control, true);
+        const HostFrameTimes host = gpu->lastHostTimes();
+        const GpuFrameTimes onDevice = gpu->lastFrameTimes();
+        stage[Upload] = host.uploadMs;
+        stage[Normals] = onDevice.valid ? onDevice.normalsMs : 0.0;  // without timestamps: in evaluate
+        stage[Evaluate] = host.waitMs - stage[Normals];
+        stage[Readback] = host.readbackMs;
+    }
+#endif
+#if PSUB_HAVE_RENDER
+    if (rendering()) {
+        if (o.wireframe == int(Wireframe::Control)) renderer->setControlPositions(control);
+        renderer->draw(refined, normals, camera, image);
+        const DrawTimes d = renderer->lastTimes();
+        stage[Upload] += d.uploadMs;
+        stage[Render] = d.renderMs;
+        stage[Readback] += d.readbackMs;
+    }
+#endif
+    const Clock::time_point end = Clock::now();
+    for (int s = 0; s < kStageCount; ++s) t.stages[std::size_t(s)].push_back(stage[s]);
+    t.frames.push_back(msBetween(start, end));
+    if (rendering()) draw(index, t);
+    if (verifier) verifier->check(index, control, refined);
+}
+
+// Writes the frame's picture (outside the timed frame).
+void Playback::draw(int index, Timings& t) {
+#if PSUB_HAVE_RENDER
+    const Clock::time_point start = Clock::now();
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%04d.png", index);
+    writePng((std::filesystem::path(o.renderDir) / name).string(), image);
+    t.writeMs += msBetween(start, Clock::now());
+#else
+    (void)index, (void)t;
+#endif
+}
+
+void refineAnimated(Playback& p) {
+    const PlayOptions& o = p.o;
+    const Mesh& mesh = p.animated.mesh;
+    const Connectivity& connectivity = p.animated.checked.connectivity;
+    const bool preprocess = needsPreprocessing(mesh.faces, connectivity, Preprocess::Auto, mesh.source);
+    const Counts finest = countsAfterSteps(countMesh(mesh.faces, connectivity), o.levels + (preprocess ? 1 : 0),
+                                           o.boundary, preprocess);
+    if (finest.faces > kMaxFaces)
+        throw InputError(o.input + ": --levels " + std::to_string(o.levels) + " would give " +
+                         std::to_string(finest.faces) + " refined faces; psub play stops at " + std::to_string(kMaxFaces));
+    RefineOptions options;
+    options.levels = o.levels;
+    options.rules = o.rules;
+    options.boundary = o.boundary;
+    p.refinement = refine(mesh, connectivity, options);
+    if (o.verify) {
+        Verifier v{refineTopology(mesh.faces, connectivity, preprocess, o.levels, {}, o.boundary), o.rules, {}, 0, 0};
+        v.control.reserve(mesh.positions.size());
+        p.verifier = std::move(v);
+    }
+    p.control.resize(3 * std::size_t(mesh.faces.vertexCount));
+    p.refined.resize(3 * std::size_t(p.refinement.perLevel.refinedCount()));
+    p.normals.resize(p.refined.size());
+}
+
+// Creates the evaluator, and the renderer with its camera; returns 1 (after a message) when
+// Vulkan is needed but unusable.
+int prepare(Playback& p) {
+    const PlayOptions& o = p.o;
+    const Refinement& r = p.refinement;
+#if PSUB_HAVE_VULKAN
+    if (o.backend == Backend::Vulkan || p.rendering()) {
+        try {
+            p.context = std::make_unique<VulkanContext>();
+            p.device = p.context->deviceName();
+            if (o.backend == Backend::Vulkan)
+                p.gpu = std::make_unique<VulkanEvaluator>(*p.context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+        } catch (const VulkanError& e) {
+            std::fprintf(stderr, "psub: error: play: %s\n", e.what());
+            return 1;
+        }
+    }
+#else
+    if (o.backend == Backend::Vulkan || p.rendering()) {
+        std::fprintf(stderr, "psub: error: play: this psub was built without Vulkan (PSUB_BUILD_VULKAN=OFF)\n");
+        return 1;
+    }
+#endif
+#if !PSUB_HAVE_RENDER
+    if (p.rendering()) {
+        std::fprintf(stderr, "psub: error: play: --render: this psub was built without the renderer\n");
+        return 1;
+    }
+#endif
+    if (o.backend == Backend::Cpu) {
+        p.cpu = std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+        p.device = "CPU, " + std::to_string(p.cpu->threads()) + " threads";
+    }
+#if PSUB_HAVE_RENDER
+    if (p.rendering()) {
+        std::filesystem::create_directories(o.renderDir);
+        RenderOptions ro;
+        ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe);
+        const Faces& cage = p.animated.mesh.faces;
+        p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro,
+                                                Polygons{cage.vertexCount, cage.offsets, cage.verts});
+        // One camera for the whole clip: the box of the control points over one period.
+        Box box;
+        for (int k = 0; k < 8; ++k) {
+            p.animated.pose(p.animated.period * k / 8, p.control);
+            box.extend(p.control);
+        }
+        p.camera = frameBox(box, float(o.width) / float(o.height));
+        p.image = filledImage(o.width, o.height, ro.background);
+    }
+#endif
+    return 0;
+}
+
+// ---------------------------------------------------------------------------------------
+// Reports
+
+std::string stagesJson(const Timings& t) {
+    std::string out = "{";
+    for (int s = 0; s < kStageCount; ++s) {
+        const Summary m = summarize(t.stages[std::size_t(s)]);
+        char text[160];
+        std::snprintf(text, sizeof text, "%s\"%s\": {\"median_ms\": %.6g, \"p95_ms\": %.6g, \"max_ms\": %.6g}",
+                      s ? ", " : "", kStageNames[std::size_t(s)], m.median, m.p95, m.max);
+        out += text;
+    }
+    return out + "}";
+}
+
+double framesPerSecond(const Timings& t) {
+    double total = 0;
+    for (double ms : t.frames) total += ms;
+    return total > 0 ? 1000.0 * double(t.frames.size()) / total : 0.0;
+}
+
+std::string jsonEscaped(const std::string& text) {
+    std::string out;
+    for (char c : text) {
+        if (c == '"' || c == '\\') out += '\\';
+        if (static_cast<unsigned char>(c) >= 0x20) out += c;
+    }
+    return out;
+}
+
+// ", \"vulkan_validation_messages\": N" when a Vulkan context ran with the validation layer.
+std::string validationJson(const Playback& p) {
+#if PSUB_HAVE_VULKAN
+    if (p.context && p.context->validationEnabled())
+        return ", \"vulkan_validation_messages\": " + std::to_string(p.context->validationMessageCount());
+#else
+    (void)p;
+#endif
+    return "";
+}
+
+void report(const Playback& p, const Timings& t) {
+    const PlayOptions& o = p.o;
+    const std::uint64_t faces = p.refinement.surface.faceOffsets.size() - 1;
+    const char* backend = o.backend == Backend::Vulkan ? "vulkan" : "cpu";
+    if (o.json) {
+        std::printf("{\"input\": \"%s\", \"animation\": \"%s\", \"levels\": %d, \"refined_faces\": %llu, "
+                    "\"refined_vertices\": %u, \"frames\": %zu, \"fps\": %.6g, \"backend\": \"%s\", \"device\": \"%s\", "
+                    "\"render\": %s, \"stages\": %s, \"verified_frames\": %d, \"max_relative_error\": %.3g%s}\n",
+                    jsonEscaped(o.input).c_str(), jsonEscaped(p.animated.name).c_str(), o.levels,
+                    (unsigned long long)faces, p.refinement.perLevel.refinedCount(), t.frames.size(), framesPerSecond(t),
+                    backend, jsonEscaped(p.device).c_str(),
+                    p.rendering() ? ("{\"width\": " + std::to_string(o.width) + ", \"height\": " + std::to_string(o.height) + "}").c_str()
+                                  : "null",
+                    stagesJson(t).c_str(), p.verifier ? p.verifier->frames : 0, p.verifier ? p.verifier->maxError : 0.0,
+                    validationJson(p).c_str());
+        return;
+    }
+    std::printf("%s: %s, %d P-S step%s: %u control points -> %llu faces, %u vertices; %s on %s\n", o.input.c_str(),
+                p.animated.name.c_str(), o.levels, o.levels == 1 ? "" : "s", p.animated.mesh.faces.vertexCount,
+                (unsigned long long)faces, p.refinement.perLevel.refinedCount(), backend, p.device.c_str());
+    const Summary frame = summarize(t.frames);
+    std::printf("%zu frames: %.1f frames per second (frame time median %.3f ms, p95 %.3f, max %.3f)%s\n\n", t.frames.size(),
+                framesPerSecond(t), frame.median, frame.p95, frame.max,
+                p.rendering() ? (", drawn at " + std::to_string(o.width) + "x" + std::to_string(o.height)).c_str() : "");
+    std::printf("%-9s %10s %10s %10s\n", "stage", "median ms", "p95 ms", "max ms");
+    for (int s = 0; s < kStageCount; ++s) {
+        const Summary m = summarize(t.stages[std::size_t(s)]);
+        std::printf("%-9s %10.3f %10.3f %10.3f\n", kStageNames[std::size_t(s)], m.median, m.p95, m.max);
+    }
+    if (o.backend == Backend::Vulkan)
+        std::printf("\nVulkan: upload = writing the control points to mapped memory; evaluate = submit to fence minus\n"
+                    "the normals pass's GPU time (timestamps); readback = copying results to the host (only with\n"
+                    "--render or --verify).\n");
+    if (p.rendering())
+        std::printf("Frames written to %s (%.1f ms per PNG, outside the frame time).\n", o.renderDir.c_str(),
+                    t.writeMs / double(std::max<std::size_t>(1, t.frames.size())));
+    if (p.verifier)
+        std::printf("Verified: all %d frames equal refining that frame's control points from scratch with the rule\n"
+                    "oracle (largest difference %.2g of the control box diagonal; limit 1e-5).\n",
+                    p.verifier->frames, p.verifier->maxError);
+}
+
+const std::map<std::string, Backend> kPlayBackends = {{"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}};
+const std::map<std::string, int> kPlayWireframe = {{"none", 0}, {"refined", 1}, {"control", 2}};
+const std::map<std::string, Rules> kPlayRules = {{"paper", Rules::Paper}, {"robust", Rules::Robust}};
+const std::map<std::string, Boundary> kPlayBoundary = {{"paper", Boundary::Paper}, {"smooth", Boundary::Smooth}};
+
+}  // namespace
+
+CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
+    CLI::App* pl = app.add_subcommand("play", "Play an animated control mesh, refined every frame; time each stage");
+    pl->add_option("input", o.input, "control mesh: .obj, or .gltf / .glb with skinning, morph targets and clips")
+        ->required();
+    pl->add_option("-l,--levels", o.levels, "P-S steps")->check(CLI::Range(0, 30))->default_val(3);
+    pl->add_option("-f,--frames", o.frames, "frames to play")->check(CLI::Range(1, 1000000))->default_val(120);
+    pl->add_option("--anim", o.animation,
+                   "wave, twist or bend (procedural), or the name of a glTF clip (default: a glTF file's first "
+                   "clip, else wave)");
+    pl->add_option("--anim-fps", o.animationFps, "animation time per frame is 1/this seconds")
+        ->check(CLI::Range(1.0, 10000.0))->default_val(30);
+    pl->add_option("--backend", o.backend, "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)")
+        ->transform(CLI::CheckedTransformer(kPlayBackends))->default_str("cpu");
+    pl->add_option("--rules", o.rules, "P-S rules: paper, or robust (beyond the paper)")
+        ->transform(CLI::CheckedTransformer(kPlayRules))->default_str("paper");
+    pl->add_option("--boundary", o.boundary, "paper, or smooth (beyond the paper)")
+        ->transform(CLI::CheckedTransformer(kPlayBoundary))->default_str("paper");
+    pl->add_option("--render", o.renderDir, "also draw every frame offscreen (Vulkan) into DIR/frame_NNNN.png");
+    pl->add_option_function<std::string>(
+          "--size",
+          [&o](const std::string& value) { std::sscanf(value.c_str(), "%ux%u", &o.width, &o.height); },
+          "picture size WIDTHxHEIGHT for --render")
+        ->check(CLI::Validator(
+            [](std::string& value) {
+                unsigned w = 0, h = 0;
+                char x = 0, extra = 0;
+                const int n = std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
+                return n == 3 && x == 'x' && w >= 1 && h >= 1 && w <= 16384 && h <= 16384
+                           ? std::string()
+                           : "expected WIDTHxHEIGHT, each 1..16384 (e.g. 1280x720)";
+            },
+            "WxH"))
+        ->default_str("1280x720");
+    pl->add_option("--wireframe", o.wireframe, "with --render: none, refined or control")
+        ->transform(CLI::CheckedTransformer(kPlayWireframe))->default_str("none");
+    pl->add_flag("--verify", o.verify,
+                 "check every frame against refining its control points from scratch with the rule oracle "
+                 "(slow; outside the timings)");
+    pl->add_flag("--json", o.json,
+                 "one JSON object: refined_faces, frames, fps, backend, stages.{deform,upload,evaluate,normals,"
+                 "render,readback}.{median_ms,p95_ms,max_ms}, and more");
+    pl->footer("Everything is created before the first frame; the loop only deforms, uploads, evaluates the\n"
+               "stencil tables, computes normals and (with --render) draws and reads back. fps counts those\n"
+               "stages; writing PNG files and --verify are outside it.\n"
+               "Examples:\n  psub play data/spot_control_mesh.obj --levels 5 --frames 300 --anim twist\n"
+               "  psub play data/cow.obj --levels 4 --backend vulkan --json\n"
+               "  psub play data/cube.obj --levels 6 --frames 60 --render frames/ --size 640x360\n"
+               "  psub play character.glb --anim Walk --levels 3 --verify");
+    return pl;
+}
+
+int runPlay(const PlayOptions& o) {
+    Animated animated = loadAnimated(o);
+    Playback p(o, animated);
+    refineAnimated(p);
+    if (const int status = prepare(p)) return status;
+    Timings t(o.frames);
+    const bool progress = ::isatty(2) != 0 && !o.json;
+    Clock::time_point lastProgress = Clock::now();
+    for (int frame = 0; frame < o.frames; ++frame) {
+        try {
+            p.frame(frame, t);
+        } catch (const InputError&) {
+            throw;
+        } catch (const std::runtime_error& e) {  // a frame's PNG could not be written
+            std::fprintf(stderr, "psub: error: play: %s\n", e.what());
+            return 1;
+        }
+        if (progress && msBetween(lastProgress, Clock::now()) > 500) {
+            std::fprintf(stderr, "\rpsub play: frame %d/%d, %.1f fps ", frame + 1, o.frames, framesPerSecond(t));
+            lastProgress = Clock::now();
+        }
+    }
+    if (progress) std::fprintf(stderr, "\r%60s\r", "");
+    report(p, t);
+    return 0;
+}
+
+}  // namespace psub::cli
