@@ -1,5 +1,6 @@
 // psub analyze, psub compare and the demo's verdict table, over psub/analysis.h.
 #include "analyze.h"
+#include "commands.h"
 
 #include "psub/analysis.h"
 #include "psub/catmark.h"
@@ -81,19 +82,10 @@ Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int l
     return compareWithCatmark(mesh, connectivity, levels, rules, samples, boundary);
 }
 
-Mesh loadWithWarnings(const std::string& path, CheckedMesh& checked) {
-    std::vector<std::string> warnings;
-    Mesh mesh = readObj(path, &warnings);
-    checked = checkMesh(mesh);
-    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
-    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
-    return mesh;
-}
-
 // psub analyze --boundary-aspect MODEL: the boundary triangles per level, paper beside smooth.
 int runBoundaryAspect(const AnalyzeOptions& options) {
     CheckedMesh checked;
-    const Mesh mesh = loadWithWarnings(options.boundaryModel, checked);
+    const Mesh mesh = loadChecked(options.boundaryModel, checked);
     if (checked.connectivity.boundaryEdgeCount == 0)
         throw InputError(options.boundaryModel + ": the mesh has no boundary edge, so no boundary triangles");
     const bool preprocess = needsPreprocessing(mesh.faces, checked.connectivity, Preprocess::Auto, mesh.source);
@@ -209,7 +201,7 @@ int runAnalyze(const AnalyzeOptions& options) {
 int runCompare(const CompareOptions& options) {
     if (options.levels % 2 != 0) throw InputError("--levels must be even: P-S after 2k steps against Catmull-Clark after k");
     CheckedMesh checked;
-    const Mesh mesh = loadWithWarnings(options.input, checked);
+    const Mesh mesh = loadChecked(options.input, checked);
     const Rules rules = options.rules == "robust" ? Rules::Robust : Rules::Paper;
     const Fidelity f = compareLoaded(mesh, checked.connectivity, options.levels, rules, options.samples, options.boundary);
     const double diagonal = f.cc.diagonal();

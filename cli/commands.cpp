@@ -37,12 +37,8 @@ struct Loaded {
 };
 
 Loaded load(const std::string& path) {
-    std::vector<std::string> warnings;
-    Loaded loaded{readObj(path, &warnings), {}};
-    loaded.checked = checkMesh(loaded.mesh);
-    warnings.insert(warnings.end(), loaded.checked.warnings.begin(), loaded.checked.warnings.end());
-    std::fflush(stdout);
-    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    Loaded loaded;
+    loaded.mesh = loadChecked(path, loaded.checked);
     return loaded;
 }
 
@@ -399,6 +395,16 @@ void writeDemoMeshes(const DemoOptions& options, const std::string& model, const
 }
 
 }  // namespace
+
+Mesh loadChecked(const std::string& path, CheckedMesh& checked) {
+    std::vector<std::string> warnings;
+    Mesh mesh = readObj(path, &warnings);
+    checked = checkMesh(mesh);
+    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
+    std::fflush(stdout);
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    return mesh;
+}
 
 std::string dataDir() {
     if (const char* env = std::getenv("PSUB_DATA_DIR")) return env;

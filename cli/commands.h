@@ -44,6 +44,9 @@ int runSubdivide(const SubdivideOptions& options);
 int runStats(const StatsOptions& options);
 int runDemo(const DemoOptions& options);
 
+// Reads and checks an OBJ file (throws InputError), printing its warnings on stderr.
+Mesh loadChecked(const std::string& path, CheckedMesh& checked);
+
 // Where the bundled models live: $PSUB_DATA_DIR, else the source tree's data/, else
 // <prefix>/share/psub next to the installed program.
 std::string dataDir();

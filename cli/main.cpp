@@ -4,6 +4,9 @@
 #include "play.h"
 #include "bench.h"
 #include "commands.h"
+#if PSUB_HAVE_RENDER
+#include "render.h"
+#endif
 
 #include <CLI/CLI.hpp>
 
@@ -246,6 +249,10 @@ int main(int argc, char** argv) {
     PlayOptions playOptions;
     CLI::App* pl = addPlayCommand(app, playOptions);
 
+#if PSUB_HAVE_RENDER
+    RenderCommandOptions renderOptions;
+    CLI::App* re = addRenderCommand(app, renderOptions);
+#endif
 
     try {
         app.parse(argc, argv);
@@ -279,6 +286,9 @@ int main(int argc, char** argv) {
         if (an->parsed()) return runAnalyze(analyze);
         if (co->parsed()) return runCompare(compare);
         if (pl->parsed()) return runPlay(playOptions);
+#if PSUB_HAVE_RENDER
+        if (re->parsed()) return runRender(renderOptions);
+#endif
         if (be->parsed()) {
             benchOptions.dataDir = dataDir();
             for (int i = 0; i < argc; ++i) {

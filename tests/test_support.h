@@ -9,6 +9,19 @@
 
 namespace psub::test {
 
+// True in AddressSanitizer builds (GCC's and clang's spellings).
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 inline std::string dataPath(const std::string& name) { return std::string(PSUB_DATA) + "/" + name; }
 inline std::string testDataPath(const std::string& name) { return std::string(PSUB_TEST_DATA) + "/" + name; }
 

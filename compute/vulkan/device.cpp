@@ -176,11 +176,12 @@ Candidate examine(VkPhysicalDevice device) {
     vkGetPhysicalDeviceQueueFamilyProperties(device, &count, nullptr);
     std::vector<VkQueueFamilyProperties> families(count);
     vkGetPhysicalDeviceQueueFamilyProperties(device, &count, families.data());
-    // A compute family; one with timestamps first, then one without graphics.
+    // A compute family; one with timestamps first, then one that can also draw (the offscreen
+    // renderer, psub_render, shares the context's queue; every GPU has such a family).
     int best = -1;
     for (std::uint32_t i = 0; i < count; ++i) {
         if (!(families[i].queueFlags & VK_QUEUE_COMPUTE_BIT) || families[i].queueCount == 0) continue;
-        const int score = (families[i].timestampValidBits > 0 ? 2 : 0) + (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT ? 0 : 1);
+        const int score = (families[i].timestampValidBits > 0 ? 2 : 0) + (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT ? 1 : 0);
         if (score > best) best = score, c.family = i, c.timestampBits = families[i].timestampValidBits;
     }
     VkPhysicalDeviceMemoryProperties memory;

@@ -1,0 +1,210 @@
+// psub render: load and check a mesh, refine it (P-S tables or OpenSubdiv's Catmull-Clark),
+// evaluate positions and normals on the CPU or with Vulkan, draw it offscreen with
+// psub::Renderer and write the PNG atomically. Also the subcommand's CLI11 definition.
+#include "render.h"
+
+#include "psub/catmark.h"
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+#include "psub/vulkan_evaluator.h"
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <vector>
+
+namespace psub::cli {
+namespace {
+
+// Beyond this many refined faces the picture is refused (memory, and lavapipe's patience).
+constexpr double kMaxFaces = 32.0 * 1024 * 1024;
+
+const std::map<std::string, Wireframe> kWireframe = {
+    {"none", Wireframe::None}, {"refined", Wireframe::Refined}, {"control", Wireframe::Control}};
+const std::map<std::string, Scheme> kSchemes = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
+const std::map<std::string, Backend> kBackends = {{"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}};
+
+// The refined surface, ready to draw.
+struct Drawable {
+    SurfaceTable surface;
+    std::vector<float> positions, normals;
+    std::string what;  // "P-S, 4 steps" and where it was evaluated
+};
+
+// Throws InputError when the refined surface would have more than kMaxFaces faces.
+void guardFaces(const Mesh& mesh, const Connectivity& connectivity, const RenderCommandOptions& o) {
+    auto faces = [&](int levels) {
+        if (o.scheme == Scheme::CatmullClark)  // level 1: one quad per corner, then 4x per level
+            return levels == 0 ? double(mesh.faces.faceCount())
+                               : double(mesh.faces.verts.size()) * std::pow(4.0, levels - 1);
+        const bool preprocess = needsPreprocessing(mesh.faces, connectivity, Preprocess::Auto);
+        return double(countsAfterSteps(countMesh(mesh.faces, connectivity), levels + (preprocess ? 1 : 0)).faces);
+    };
+    if (faces(o.levels) <= kMaxFaces) return;
+    int most = 0;
+    while (most + 1 < o.levels && faces(most + 1) <= kMaxFaces) ++most;
+    throw InputError(mesh.source.path + ": --levels " + std::to_string(o.levels) + " would draw " +
+                     std::to_string(std::uint64_t(faces(o.levels))) + " faces (limit " +
+                     std::to_string(std::uint64_t(kMaxFaces)) + "); --levels " + std::to_string(most) +
+                     " is the most that fits");
+}
+
+// Positions (from `control`, on the chosen backend) and normals of the surface of `perLevel`.
+void evaluate(VulkanContext& context, const RenderCommandOptions& o, const PerLevelTable& perLevel,
+              std::span<const float> control, Drawable& d) {
+    const FactorizedTable none;
+    d.positions.resize(3 * std::size_t(perLevel.refinedCount()));
+    d.normals.resize(d.positions.size());
+    if (o.backend == Backend::Vulkan) {
+        VulkanEvaluator evaluator(context, perLevel, none, d.surface, TableForm::PerLevel);
+        evaluator.evaluate(control, d.positions, d.normals);
+        d.what += "; evaluated with Vulkan";
+        return;
+    }
+    CpuEvaluator<float> evaluator(perLevel, none, d.surface, TableForm::PerLevel);
+    evaluator.evaluate(control, d.positions);
+    evaluator.normals(d.positions, d.normals);
+    d.what += "; evaluated on the CPU";
+}
+
+Drawable refinePS(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh,
+                  const CheckedMesh& checked) {
+    RefineOptions options;
+    options.levels = o.levels;
+    Refinement r = refine(mesh, checked.connectivity, options);
+    Drawable d;
+    d.surface = std::move(r.surface);
+    d.what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step" : " steps");
+    const std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
+    evaluate(context, o, r.perLevel, control, d);
+    return d;
+}
+
+// OpenSubdiv refines the positions; normals come from a table of no levels over its faces.
+Drawable refineCC(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh) {
+    std::vector<CatmarkLevel> levels = refineCatmark(mesh.faces, mesh.positions, o.levels);
+    CatmarkLevel& finest = levels.back();
+    Drawable d;
+    d.surface = buildSurfaceTable(std::move(finest.faces));
+    d.what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + (o.levels == 1 ? " level" : " levels");
+    PerLevelTable identity;
+    identity.controlCount = d.surface.vertexCount;
+    const std::vector<float> refined(finest.positions.begin(), finest.positions.end());
+    evaluate(context, o, identity, refined, d);
+    return d;
+}
+
+// A choice among named values: shown by name in --help, stored as the enum.
+template <class Enum>
+void addChoice(CLI::App* command, const std::string& name, Enum& target, const std::map<std::string, Enum>& choices,
+               const std::string& help, const std::string& defaultName) {
+    std::vector<std::string> names;
+    for (const auto& entry : choices) names.push_back(entry.first);
+    command
+        ->add_option_function<std::string>(
+            name, [&target, &choices](const std::string& value) { target = choices.at(value); }, help)
+        ->check(CLI::IsMember(names))
+        ->type_name("TEXT")
+        ->default_str(defaultName);
+}
+
+double median(std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    return values.empty() ? 0.0 : values[values.size() / 2];
+}
+
+int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh, const Drawable& d) {
+    RenderOptions ro;
+    ro.width = o.width, ro.height = o.height, ro.wireframe = o.wireframe;
+    const Polygons control{mesh.faces.vertexCount, mesh.faces.offsets, mesh.faces.verts};
+    Renderer renderer(context, polygonsOf(d.surface), ro, control);
+    const std::vector<float> controlPositions(mesh.positions.begin(), mesh.positions.end());
+    if (o.wireframe == Wireframe::Control) renderer.setControlPositions(controlPositions);
+    // What is drawn fills the picture: the surface, and the cage when it is drawn.
+    Box box;
+    box.extend(d.positions);
+    if (o.wireframe == Wireframe::Control) box.extend(controlPositions);
+    const Camera camera = frameBox(box, float(o.width) / float(o.height));
+    Image image;
+    std::vector<double> renderMs, readbackMs;
+    for (int frame = 0; frame < o.frames; ++frame) {
+        renderer.draw(d.positions, d.normals, camera, image);
+        renderMs.push_back(renderer.lastTimes().renderMs);
+        readbackMs.push_back(renderer.lastTimes().readbackMs);
+    }
+    writePng(o.output, image);
+    std::printf("%s: %ux%u, %u faces (%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
+                o.output.c_str(), o.width, o.height, std::uint32_t(d.surface.faceOffsets.size() - 1), d.what.c_str(),
+                renderer.triangleCount(),
+                renderer.lineCount() ? (" + " + std::to_string(renderer.lineCount()) + " lines").c_str() : "",
+                context.deviceName().c_str(), median(renderMs), median(readbackMs),
+                o.frames > 1 ? (" (median of " + std::to_string(o.frames) + " draws)").c_str() : "");
+    return 0;
+}
+
+}  // namespace
+
+CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
+    CLI::App* re = app.add_subcommand("render", "Draw a refined mesh offscreen with Vulkan into a PNG");
+    re->add_option("input", o.input, "input mesh (.obj)")->required();
+    re->add_option("-o,--output", o.output, "output image (.png), written atomically")->required();
+    re->add_option("-l,--levels", o.levels, "refinement steps (P-S) or levels (--scheme cc)")
+        ->check(CLI::Range(0, 30))->default_val(4);
+    addChoice(re, "--scheme", o.scheme, kSchemes, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
+    addChoice(re, "--wireframe", o.wireframe, kWireframe,
+              "none; refined: the refined faces' edges; control: the input faces' edges (the cage)", "none");
+    re->add_option_function<std::string>(
+          "--size",
+          [&o](const std::string& value) {
+              unsigned w = 0, h = 0;
+              char x = 0, extra = 0;
+              std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
+              o.width = w, o.height = h;
+          },
+          "image size WIDTHxHEIGHT in pixels")
+        ->check(CLI::Validator(
+            [](std::string& value) {
+                unsigned w = 0, h = 0;
+                char x = 0, extra = 0;
+                const int n = std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
+                return n == 3 && x == 'x' && w >= 1 && h >= 1 && w <= 16384 && h <= 16384
+                           ? std::string()
+                           : "expected WIDTHxHEIGHT, each 1..16384 (e.g. 1280x720)";
+            },
+            "WxH"))
+        ->default_str("1280x720");
+    addChoice(re, "--backend", o.backend, kBackends,
+              "where positions and normals are evaluated: cpu or vulkan (drawing is always Vulkan)", "cpu");
+    re->add_option("--frames", o.frames, "draw this many times and report the median render and readback times")
+        ->check(CLI::Range(1, 10000))->default_val(1);
+    re->footer("Needs a Vulkan device (Mesa's lavapipe will do; no display). The camera looks from the front,\n"
+               "a bit right and above, and frames what is drawn (the surface, and the cage with\n"
+               "--wireframe control).\n"
+               "Examples:\n  psub render data/cube.obj -o cube.png --levels 4\n"
+               "  psub render data/spot_control_mesh.obj -o spot.png --levels 4 --wireframe control --size 800x800\n"
+               "  psub render data/cow.obj -o cow_cc.png --levels 2 --scheme cc --wireframe refined");
+    return re;
+}
+
+int runRender(const RenderCommandOptions& o) {
+    CheckedMesh checked;
+    const Mesh mesh = loadChecked(o.input, checked);
+    guardFaces(mesh, checked.connectivity, o);
+    try {
+        VulkanContext context;
+        const Drawable d = o.scheme == Scheme::PS ? refinePS(context, o, mesh, checked) : refineCC(context, o, mesh);
+        return drawAndWrite(context, o, mesh, d);
+    } catch (const VulkanError& e) {
+        std::fprintf(stderr, "psub: error: render: %s\n", e.what());
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::runtime_error& e) {  // the PNG could not be written
+        std::fprintf(stderr, "psub: error: %s\n", e.what());
+    }
+    return 1;
+}
+
+}  // namespace psub::cli

@@ -1,0 +1,161 @@
+// psub/render.h: offscreen pictures of refined surfaces with Vulkan (no window, no display;
+// Mesa's lavapipe is enough): a renderer built once per surface, a camera that frames a box,
+// and the image side: PNG output, captions, panels side by side. Link psub::render. Reads
+// face lists only, never topology. No Vulkan types here.
+#pragma once
+
+#include "psub/tables.h"
+#include "psub/vulkan_evaluator.h"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace psub {
+
+struct Rgba {
+    std::uint8_t r = 0, g = 0, b = 0, a = 255;
+    bool operator==(const Rgba&) const = default;
+};
+
+// Pixels row by row from the top, 4 bytes (r, g, b, a) each.
+struct Image {
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::uint8_t> rgba;
+
+    Rgba pixel(std::uint32_t x, std::uint32_t y) const;
+    void setPixel(std::uint32_t x, std::uint32_t y, Rgba colour);
+};
+
+// An image of `width` x `height` filled with `colour`.
+Image filledImage(std::uint32_t width, std::uint32_t height, Rgba colour);
+
+// Writes `image` as an 8-bit RGBA PNG, atomically: a temporary file in the same directory,
+// renamed over `path` when complete; on failure no file is left and std::runtime_error names
+// `path` and the reason.
+void writePng(const std::string& path, const Image& image);
+
+// Reads an 8-bit RGB or RGBA PNG (for tests and tools); std::runtime_error naming `path`.
+Image readPng(const std::string& path);
+
+// Draws `text` (ASCII, '\n' for new lines) with stb_easy_font: top-left corner at (x, y),
+// `scale` pixels per font unit (a capital is 7 units tall). Clipped to the image.
+void drawText(Image& image, int x, int y, const std::string& text, int scale, Rgba colour);
+// Width and height in pixels of `text` drawn at `scale`.
+std::array<int, 2> textSize(const std::string& text, int scale);
+
+// A figure: `panels` (all the same size; std::invalid_argument otherwise) left to right, each
+// with its caption centred in a band below it. captions.size() must equal panels.size().
+Image panelsWithCaptions(std::span<const Image> panels, std::span<const std::string> captions,
+                         int captionScale = 2, Rgba background = {255, 255, 255, 255},
+                         Rgba textColour = {20, 20, 20, 255});
+
+// An axis-aligned box; empty until extended.
+struct Box {
+    std::array<float, 3> min{1e30f, 1e30f, 1e30f}, max{-1e30f, -1e30f, -1e30f};
+
+    // Grows the box over xyz triples (a multiple of 3 floats).
+    void extend(std::span<const float> xyz);
+    bool empty() const { return min[0] > max[0]; }
+};
+
+// A perspective camera. Matrices are column-major (GLM's and GLSL's order) and map world
+// points straight to Vulkan clip space: a point p lands at ndc = (clip.xyz / clip.w) with
+// clip = viewProjection * (p, 1); pixel x = (ndc.x + 1) / 2 * width, pixel y = (ndc.y + 1)
+// / 2 * height counted from the top row; depth ndc.z in [0, 1].
+struct Camera {
+    std::array<float, 16> view{}, projection{}, viewProjection{};
+    std::array<float, 3> eye{}, target{};
+    float verticalFovDegrees = 30;
+};
+
+// The default viewing direction (from the target towards the eye): in front (+z), a bit to
+// the right (+x) and above (+y).
+inline constexpr std::array<float, 3> kFrontRightAbove{0.45f, 0.35f, 1.0f};
+
+// Frames the box [min, max] (a point or an empty box gets a unit-sized neighbourhood) for
+// images of width/height `aspect`, looking along -`towardsEye` (any length, not parallel to
+// y), y up. The whole box is in view; the same camera for several meshes keeps their sizes
+// comparable.
+Camera frameBox(std::array<float, 3> min, std::array<float, 3> max, float aspect,
+                std::array<float, 3> towardsEye = kFrontRightAbove);
+inline Camera frameBox(const Box& box, float aspect, std::array<float, 3> towardsEye = kFrontRightAbove) {
+    return frameBox(box.min, box.max, aspect, towardsEye);
+}
+
+// Polygons as CSR arrays: face f has the corners verts[offsets[f] .. offsets[f + 1]),
+// counter-clockwise; corners index vertices 0 .. vertexCount - 1. Faces with fewer than 3
+// corners are skipped. The arrays need only live through the renderer's constructor.
+struct Polygons {
+    std::uint32_t vertexCount = 0;
+    std::span<const std::uint32_t> offsets, verts;
+};
+inline Polygons polygonsOf(const SurfaceTable& surface) {
+    return {surface.vertexCount, surface.faceOffsets, surface.faceVerts};
+}
+
+enum class Wireframe {
+    None,
+    Refined,  // the refined faces' edges over the surface
+    Control,  // the control faces' edges (their own positions: setControlPositions)
+};
+
+struct RenderOptions {
+    std::uint32_t width = 1280, height = 720;  // 1 .. the device's maxImageDimension2D
+    Wireframe wireframe = Wireframe::None;
+    std::uint32_t samples = 4;  // MSAA samples per pixel (1, 2, 4 or 8; lowered to what the device has)
+    Rgba background{255, 255, 255, 255};
+    Rgba surface{170, 190, 215, 255};
+    Rgba lines{25, 25, 35, 255};
+};
+
+// Milliseconds of the last draw: copying positions and normals into the mapped vertex
+// buffers, rendering (submit to fence), and reading back (copy to the host buffer, fence,
+// copy into the caller's image).
+struct DrawTimes {
+    double uploadMs = 0, renderMs = 0, readbackMs = 0;
+    double totalMs() const { return uploadMs + renderMs + readbackMs; }
+};
+
+// Draws one surface again and again. Everything is created here: graphics pipelines (shaded
+// surface: headlight + key light, Lambert on per-vertex normals, two-sided; lines drawn over
+// it pulled slightly towards the eye), colour and depth images, vertex, index and readback
+// buffers, two pre-recorded command buffers and a fence. A draw allocates nothing and
+// creates nothing. Needs a context whose queue can do graphics (lavapipe's can; on devices
+// where the context picked a compute-only queue family it throws VulkanError). Must not
+// outlive the context; not thread-safe.
+class Renderer {
+public:
+    // surface: the faces drawn (triangulated as fans). control: the control faces, used only
+    // for Wireframe::Control (required then). Throws std::invalid_argument for inconsistent
+    // polygons or options, VulkanError on device failure or limits.
+    Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control = {});
+    ~Renderer();
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    const RenderOptions& options() const;
+
+    // The control cage's positions (3 floats per control vertex) for the following draws.
+    void setControlPositions(std::span<const float> xyz);
+
+    // One frame: positions and normals (3 floats per surface vertex each; normals need not be
+    // unit length) seen through `camera`, into `out` (resized only when its size differs, so
+    // a caller that keeps `out` allocates once).
+    void draw(std::span<const float> positions, std::span<const float> normals, const Camera& camera, Image& out);
+
+    DrawTimes lastTimes() const;
+    // Triangles and line segments drawn per frame.
+    std::uint32_t triangleCount() const;
+    std::uint32_t lineCount() const;
+
+    struct Impl;
+
+private:
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace psub

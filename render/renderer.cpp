@@ -1,0 +1,625 @@
+// The offscreen renderer: graphics pipelines from the SPIR-V of shaders/render_* (embedded at
+// build time), colour (+ MSAA) and depth images, persistently mapped vertex buffers, index
+// buffers of fan triangles and unique edges, a readback buffer, and two command buffers
+// recorded once: render (one render pass), readback (copy -> host barrier). A draw writes
+// buffers, submits, waits on the fence and copies the pixels out.
+#include "psub/render.h"
+
+#include "device.h"
+#include "resources.h"
+
+#include "render_lines_frag.spv.h"
+#include "render_lines_vert.spv.h"
+#include "render_mesh_frag.spv.h"
+#include "render_mesh_vert.spv.h"
+
+#include <algorithm>
+#include <cassert>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace psub {
+namespace {
+
+using namespace vulkan;
+using Clock = std::chrono::steady_clock;
+
+// Mirrors shaders/render_frame.glsl (std140).
+struct FrameUniforms {
+    float view[16], projection[16];
+    float surfaceColour[4], lineColour[4], keyLight[4], params[4];
+};
+static_assert(sizeof(FrameUniforms) == 192);
+
+// Lines are pulled this fraction of their distance towards the eye (render_lines.vert).
+constexpr float kLinePull = 0.0015f;
+
+struct Image2D {
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+};
+
+double msBetween(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+// Throws std::invalid_argument unless `p` is a consistent CSR face list.
+void checkPolygons(Polygons p, const char* what) {
+    if (p.offsets.empty()) {
+        if (!p.verts.empty()) throw std::invalid_argument(std::string("Renderer: ") + what + " has corners but no offsets");
+        return;
+    }
+    if (p.offsets.front() != 0 || p.offsets.back() != p.verts.size())
+        throw std::invalid_argument(std::string("Renderer: ") + what + " offsets do not span the corner list");
+    for (std::size_t f = 0; f + 1 < p.offsets.size(); ++f)
+        if (p.offsets[f] > p.offsets[f + 1])
+            throw std::invalid_argument(std::string("Renderer: ") + what + " offsets decrease at face " + std::to_string(f));
+    for (std::uint32_t v : p.verts)
+        if (v >= p.vertexCount)
+            throw std::invalid_argument(std::string("Renderer: ") + what + " corner " + std::to_string(v) +
+                                        " is beyond its " + std::to_string(p.vertexCount) + " vertices");
+}
+
+// Every face of 3 or more corners as a fan of triangles from its first corner.
+std::vector<std::uint32_t> fanTriangles(Polygons p) {
+    std::vector<std::uint32_t> indices;
+    for (std::size_t f = 0; f + 1 < p.offsets.size(); ++f) {
+        const std::uint32_t begin = p.offsets[f], end = p.offsets[f + 1];
+        for (std::uint32_t i = begin + 1; i + 1 < end; ++i)
+            indices.insert(indices.end(), {p.verts[begin], p.verts[i], p.verts[i + 1]});
+    }
+    return indices;
+}
+
+// Each edge of the faces (of 3 or more corners) once, as index pairs.
+std::vector<std::uint32_t> uniqueEdges(Polygons p) {
+    std::vector<std::uint64_t> keys;
+    for (std::size_t f = 0; f + 1 < p.offsets.size(); ++f) {
+        const std::uint32_t begin = p.offsets[f], end = p.offsets[f + 1];
+        if (end - begin < 3) continue;
+        for (std::uint32_t i = begin; i < end; ++i) {
+            const std::uint32_t a = p.verts[i], b = p.verts[i + 1 < end ? i + 1 : begin];
+            keys.push_back(std::uint64_t(std::min(a, b)) << 32 | std::max(a, b));
+        }
+    }
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    std::vector<std::uint32_t> pairs;
+    pairs.reserve(2 * keys.size());
+    for (std::uint64_t k : keys) pairs.insert(pairs.end(), {std::uint32_t(k >> 32), std::uint32_t(k)});
+    return pairs;
+}
+
+void toFloats(Rgba c, float out[4]) {
+    out[0] = float(c.r) / 255.0f, out[1] = float(c.g) / 255.0f, out[2] = float(c.b) / 255.0f, out[3] = float(c.a) / 255.0f;
+}
+
+std::uint32_t deviceMemoryType(const VulkanContext::Impl& c, std::uint32_t bits) {
+    std::uint32_t fallback = ~0u;
+    for (std::uint32_t i = 0; i < c.memory.memoryTypeCount; ++i) {
+        if (!(bits & (1u << i))) continue;
+        if (c.memory.memoryTypes[i].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) return i;
+        if (fallback == ~0u) fallback = i;
+    }
+    if (fallback == ~0u) throw VulkanError(std::string("no memory type for an image on ") + c.properties.deviceName);
+    return fallback;
+}
+
+void destroyImage(const VulkanContext::Impl& c, Image2D& image) {
+    if (image.view) vkDestroyImageView(c.device, image.view, nullptr);
+    if (image.image) vkDestroyImage(c.device, image.image, nullptr);
+    if (image.memory) vkFreeMemory(c.device, image.memory, nullptr);
+    image = Image2D{};
+}
+
+Image2D createImage(const VulkanContext::Impl& c, VkFormat format, VkImageUsageFlags usage,
+                    VkSampleCountFlagBits samples, VkImageAspectFlags aspect, std::uint32_t width, std::uint32_t height) {
+    Image2D made;
+    VkImageCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    info.imageType = VK_IMAGE_TYPE_2D;
+    info.format = format;
+    info.extent = {width, height, 1};
+    info.mipLevels = 1;
+    info.arrayLayers = 1;
+    info.samples = samples;
+    info.tiling = VK_IMAGE_TILING_OPTIMAL;
+    info.usage = usage;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VK_CHECK(vkCreateImage(c.device, &info, nullptr, &made.image));
+    try {
+        VkMemoryRequirements requirements;
+        vkGetImageMemoryRequirements(c.device, made.image, &requirements);
+        VkMemoryAllocateInfo allocate{};
+        allocate.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+        allocate.allocationSize = requirements.size;
+        allocate.memoryTypeIndex = deviceMemoryType(c, requirements.memoryTypeBits);
+        VK_CHECK(vkAllocateMemory(c.device, &allocate, nullptr, &made.memory));
+        VK_CHECK(vkBindImageMemory(c.device, made.image, made.memory, 0));
+        VkImageViewCreateInfo viewInfo{};
+        viewInfo.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+        viewInfo.image = made.image;
+        viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
+        viewInfo.format = format;
+        viewInfo.subresourceRange = {aspect, 0, 1, 0, 1};
+        VK_CHECK(vkCreateImageView(c.device, &viewInfo, nullptr, &made.view));
+    } catch (...) {
+        destroyImage(c, made);
+        throw;
+    }
+    return made;
+}
+
+VkFormat chooseDepthFormat(VkPhysicalDevice physical) {
+    for (VkFormat format : {VK_FORMAT_D32_SFLOAT, VK_FORMAT_X8_D24_UNORM_PACK32, VK_FORMAT_D16_UNORM}) {
+        VkFormatProperties properties;
+        vkGetPhysicalDeviceFormatProperties(physical, format, &properties);
+        if (properties.optimalTilingFeatures & VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT) return format;
+    }
+    throw VulkanError("no depth format usable as an attachment");
+}
+
+// The largest sample count up to `wanted` that colour and depth attachments both support.
+VkSampleCountFlagBits chooseSamples(const VkPhysicalDeviceLimits& limits, std::uint32_t wanted) {
+    const VkSampleCountFlags supported = limits.framebufferColorSampleCounts & limits.framebufferDepthSampleCounts;
+    for (std::uint32_t s = 64; s > 1; s /= 2)
+        if (s <= wanted && (supported & s)) return VkSampleCountFlagBits(s);
+    return VK_SAMPLE_COUNT_1_BIT;
+}
+
+bool queueHasGraphics(const VulkanContext::Impl& c) {
+    std::uint32_t count = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(c.physical, &count, nullptr);
+    std::vector<VkQueueFamilyProperties> families(count);
+    vkGetPhysicalDeviceQueueFamilyProperties(c.physical, &count, families.data());
+    return c.queueFamily < count && (families[c.queueFamily].queueFlags & VK_QUEUE_GRAPHICS_BIT);
+}
+
+VkShaderModule createModule(VkDevice device, std::span<const std::uint32_t> words) {
+    VkShaderModuleCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    info.codeSize = words.size_bytes();
+    info.pCode = words.data();
+    VkShaderModule module = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateShaderModule(device, &info, nullptr, &module));
+    return module;
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+    VulkanContext::Impl& context;
+    RenderOptions options;
+    VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
+    std::uint32_t vertexCount = 0, controlVertexCount = 0, triangleIndices = 0, lineIndices = 0;
+    Buffer positions, normals, triangles, lines, controlPositions, uniforms, readback;
+    Image2D colour, multisampled, depth;  // colour: single-sample, read back; multisampled: when samples > 1
+    VkRenderPass renderPass = VK_NULL_HANDLE;
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkPipeline meshPipeline = VK_NULL_HANDLE, linePipeline = VK_NULL_HANDLE;
+    VkCommandPool commandPool = VK_NULL_HANDLE;
+    VkCommandBuffer renderCommands = VK_NULL_HANDLE, readbackCommands = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
+    DrawTimes times;
+
+    Impl(VulkanContext::Impl& c, const RenderOptions& o) : context(c), options(o) {}
+    ~Impl();
+
+    void createBuffers(Polygons surface, Polygons control);
+    void createImages();
+    void createRenderPass();
+    void createDescriptors();
+    VkPipeline createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment, bool mesh);
+    void recordCommands();
+    void submitAndWait(VkCommandBuffer command);
+    void writeUniforms(const Camera& camera);
+};
+
+Renderer::Impl::~Impl() {
+    const VkDevice d = context.device;
+    if (fence) vkDestroyFence(d, fence, nullptr);
+    if (commandPool) vkDestroyCommandPool(d, commandPool, nullptr);
+    for (VkPipeline p : {meshPipeline, linePipeline})
+        if (p) vkDestroyPipeline(d, p, nullptr);
+    if (pipelineLayout) vkDestroyPipelineLayout(d, pipelineLayout, nullptr);
+    if (descriptorPool) vkDestroyDescriptorPool(d, descriptorPool, nullptr);
+    if (setLayout) vkDestroyDescriptorSetLayout(d, setLayout, nullptr);
+    if (framebuffer) vkDestroyFramebuffer(d, framebuffer, nullptr);
+    if (renderPass) vkDestroyRenderPass(d, renderPass, nullptr);
+    for (Image2D* image : {&colour, &multisampled, &depth}) destroyImage(context, *image);
+    for (Buffer* b : {&positions, &normals, &triangles, &lines, &controlPositions, &uniforms, &readback})
+        destroyBuffer(context, *b);
+}
+
+void Renderer::Impl::createBuffers(Polygons surface, Polygons control) {
+    const VulkanContext::Impl& c = context;
+    const std::vector<std::uint32_t> fan = fanTriangles(surface);
+    std::vector<std::uint32_t> edges;
+    if (options.wireframe == Wireframe::Refined) edges = uniqueEdges(surface);
+    if (options.wireframe == Wireframe::Control) edges = uniqueEdges(control);
+    if (fan.size() > 0xffffffffu || edges.size() > 0xffffffffu)
+        throw std::invalid_argument("Renderer: more than 2^32 indices in one draw");
+    triangleIndices = std::uint32_t(fan.size());
+    lineIndices = std::uint32_t(edges.size());
+    const VkBufferUsageFlags vertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;
+    positions = createBuffer(c, 12ull * vertexCount, vertexUsage, Memory::Device, true);
+    normals = createBuffer(c, 12ull * vertexCount, vertexUsage, Memory::Device, true);
+    if (options.wireframe == Wireframe::Control)
+        controlPositions = createBuffer(c, 12ull * controlVertexCount, vertexUsage, Memory::Device, true);
+    triangles = createBuffer(c, 4ull * fan.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
+    if (!fan.empty()) std::memcpy(triangles.mapped, fan.data(), 4 * fan.size());
+    lines = createBuffer(c, 4ull * edges.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
+    if (!edges.empty()) std::memcpy(lines.mapped, edges.data(), 4 * edges.size());
+    uniforms = createBuffer(c, sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, Memory::Upload, true);
+    readback = createBuffer(c, 4ull * options.width * options.height, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                            Memory::Readback, true);
+    // Zeros until the caller writes positions: every draw is of defined data.
+    for (Buffer* b : {&positions, &normals, &controlPositions})
+        if (b->mapped) std::memset(b->mapped, 0, b->size);
+}
+
+void Renderer::Impl::createImages() {
+    const VulkanContext::Impl& c = context;
+    const VkFormat depthFormat = chooseDepthFormat(c.physical);
+    colour = createImage(c, VK_FORMAT_R8G8B8A8_UNORM,
+                         VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_SAMPLE_COUNT_1_BIT,
+                         VK_IMAGE_ASPECT_COLOR_BIT, options.width, options.height);
+    if (samples != VK_SAMPLE_COUNT_1_BIT)
+        multisampled = createImage(c, VK_FORMAT_R8G8B8A8_UNORM,
+                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSIENT_ATTACHMENT_BIT,
+                                   samples, VK_IMAGE_ASPECT_COLOR_BIT, options.width, options.height);
+    depth = createImage(c, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, samples, VK_IMAGE_ASPECT_DEPTH_BIT,
+                        options.width, options.height);
+    createRenderPass();
+    const bool msaa = samples != VK_SAMPLE_COUNT_1_BIT;
+    const VkImageView views[3] = {msaa ? multisampled.view : colour.view, depth.view, colour.view};
+    VkFramebufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
+    info.renderPass = renderPass;
+    info.attachmentCount = msaa ? 3 : 2;
+    info.pAttachments = views;
+    info.width = options.width;
+    info.height = options.height;
+    info.layers = 1;
+    VK_CHECK(vkCreateFramebuffer(c.device, &info, nullptr, &framebuffer));
+}
+
+// Attachments: colour (multisampled or the image read back), depth, and with MSAA the
+// single-sample resolve target. The image read back ends in TRANSFER_SRC_OPTIMAL.
+void Renderer::Impl::createRenderPass() {
+    const bool msaa = samples != VK_SAMPLE_COUNT_1_BIT;
+    VkAttachmentDescription attachments[3]{};
+    attachments[0].format = VK_FORMAT_R8G8B8A8_UNORM;
+    attachments[0].samples = samples;
+    attachments[0].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    attachments[0].storeOp = msaa ? VK_ATTACHMENT_STORE_OP_DONT_CARE : VK_ATTACHMENT_STORE_OP_STORE;
+    attachments[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    attachments[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    attachments[0].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    attachments[0].finalLayout = msaa ? VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    attachments[1] = attachments[0];
+    attachments[1].format = chooseDepthFormat(context.physical);
+    attachments[1].storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    attachments[1].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    attachments[2] = attachments[0];
+    attachments[2].samples = VK_SAMPLE_COUNT_1_BIT;
+    attachments[2].loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    attachments[2].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    attachments[2].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    const VkAttachmentReference colourRef{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+    const VkAttachmentReference depthRef{1, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+    const VkAttachmentReference resolveRef{2, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription subpass{};
+    subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    subpass.colorAttachmentCount = 1;
+    subpass.pColorAttachments = &colourRef;
+    subpass.pResolveAttachments = msaa ? &resolveRef : nullptr;
+    subpass.pDepthStencilAttachment = &depthRef;
+    // Before: the previous frame's copy and attachment writes. After: the copy to the host.
+    const VkPipelineStageFlags attachmentStages = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                                  VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                                                  VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    const VkAccessFlags attachmentWrites =
+        VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    VkSubpassDependency dependencies[2]{};
+    dependencies[0] = {VK_SUBPASS_EXTERNAL, 0, attachmentStages | VK_PIPELINE_STAGE_TRANSFER_BIT, attachmentStages,
+                       attachmentWrites, attachmentWrites | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT, 0};
+    dependencies[1] = {0, VK_SUBPASS_EXTERNAL, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
+                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT,
+                       VK_ACCESS_TRANSFER_READ_BIT, 0};
+    VkRenderPassCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
+    info.attachmentCount = msaa ? 3 : 2;
+    info.pAttachments = attachments;
+    info.subpassCount = 1;
+    info.pSubpasses = &subpass;
+    info.dependencyCount = 2;
+    info.pDependencies = dependencies;
+    VK_CHECK(vkCreateRenderPass(context.device, &info, nullptr, &renderPass));
+}
+
+void Renderer::Impl::createDescriptors() {
+    const VkDevice d = context.device;
+    const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
+                                               VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+    VkDescriptorSetLayoutCreateInfo setInfo{};
+    setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    setInfo.bindingCount = 1;
+    setInfo.pBindings = &binding;
+    VK_CHECK(vkCreateDescriptorSetLayout(d, &setInfo, nullptr, &setLayout));
+    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
+    VkDescriptorPoolCreateInfo poolInfo{};
+    poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    poolInfo.maxSets = 1;
+    poolInfo.poolSizeCount = 1;
+    poolInfo.pPoolSizes = &size;
+    VK_CHECK(vkCreateDescriptorPool(d, &poolInfo, nullptr, &descriptorPool));
+    VkDescriptorSetAllocateInfo allocate{};
+    allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    allocate.descriptorPool = descriptorPool;
+    allocate.descriptorSetCount = 1;
+    allocate.pSetLayouts = &setLayout;
+    VK_CHECK(vkAllocateDescriptorSets(d, &allocate, &descriptorSet));
+    const VkDescriptorBufferInfo bufferInfo{uniforms.buffer, 0, sizeof(FrameUniforms)};
+    VkWriteDescriptorSet write{};
+    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    write.dstSet = descriptorSet;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    write.pBufferInfo = &bufferInfo;
+    vkUpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    VkPipelineLayoutCreateInfo layoutInfo{};
+    layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layoutInfo.setLayoutCount = 1;
+    layoutInfo.pSetLayouts = &setLayout;
+    VK_CHECK(vkCreatePipelineLayout(d, &layoutInfo, nullptr, &pipelineLayout));
+}
+
+// mesh: triangles with positions (binding 0) and normals (binding 1), depth written.
+// Otherwise lines with positions only, depth tested (less or equal) but not written.
+VkPipeline Renderer::Impl::createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment,
+                                          bool mesh) {
+    const VkDevice d = context.device;
+    VkShaderModule modules[2] = {createModule(d, vertex), VK_NULL_HANDLE};
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    try {
+        modules[1] = createModule(d, fragment);
+        VkPipelineShaderStageCreateInfo stages[2]{};
+        for (int i = 0; i < 2; ++i) {
+            stages[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+            stages[i].stage = i == 0 ? VK_SHADER_STAGE_VERTEX_BIT : VK_SHADER_STAGE_FRAGMENT_BIT;
+            stages[i].module = modules[i];
+            stages[i].pName = "main";
+        }
+        const VkVertexInputBindingDescription bindings[2] = {{0, 12, VK_VERTEX_INPUT_RATE_VERTEX},
+                                                             {1, 12, VK_VERTEX_INPUT_RATE_VERTEX}};
+        const VkVertexInputAttributeDescription attributes[2] = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
+                                                                 {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0}};
+        VkPipelineVertexInputStateCreateInfo input{};
+        input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
+        input.vertexBindingDescriptionCount = mesh ? 2 : 1;
+        input.pVertexBindingDescriptions = bindings;
+        input.vertexAttributeDescriptionCount = mesh ? 2 : 1;
+        input.pVertexAttributeDescriptions = attributes;
+        VkPipelineInputAssemblyStateCreateInfo assembly{};
+        assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
+        assembly.topology = mesh ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST : VK_PRIMITIVE_TOPOLOGY_LINE_LIST;
+        const VkViewport viewport{0, 0, float(options.width), float(options.height), 0, 1};
+        const VkRect2D scissor{{0, 0}, {options.width, options.height}};
+        VkPipelineViewportStateCreateInfo viewportState{};
+        viewportState.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
+        viewportState.viewportCount = 1;
+        viewportState.pViewports = &viewport;
+        viewportState.scissorCount = 1;
+        viewportState.pScissors = &scissor;
+        VkPipelineRasterizationStateCreateInfo raster{};
+        raster.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
+        raster.polygonMode = VK_POLYGON_MODE_FILL;
+        raster.cullMode = VK_CULL_MODE_NONE;  // two-sided
+        raster.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+        raster.lineWidth = 1.0f;
+        VkPipelineMultisampleStateCreateInfo multisample{};
+        multisample.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
+        multisample.rasterizationSamples = samples;
+        VkPipelineDepthStencilStateCreateInfo depthState{};
+        depthState.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
+        depthState.depthTestEnable = VK_TRUE;
+        depthState.depthWriteEnable = mesh ? VK_TRUE : VK_FALSE;
+        depthState.depthCompareOp = mesh ? VK_COMPARE_OP_LESS : VK_COMPARE_OP_LESS_OR_EQUAL;
+        VkPipelineColorBlendAttachmentState blendAttachment{};
+        blendAttachment.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
+                                         VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+        VkPipelineColorBlendStateCreateInfo blend{};
+        blend.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
+        blend.attachmentCount = 1;
+        blend.pAttachments = &blendAttachment;
+        VkGraphicsPipelineCreateInfo info{};
+        info.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
+        info.stageCount = 2;
+        info.pStages = stages;
+        info.pVertexInputState = &input;
+        info.pInputAssemblyState = &assembly;
+        info.pViewportState = &viewportState;
+        info.pRasterizationState = &raster;
+        info.pMultisampleState = &multisample;
+        info.pDepthStencilState = &depthState;
+        info.pColorBlendState = &blend;
+        info.layout = pipelineLayout;
+        info.renderPass = renderPass;
+        VK_CHECK(vkCreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
+    } catch (...) {
+        for (VkShaderModule m : modules)
+            if (m) vkDestroyShaderModule(d, m, nullptr);
+        throw;
+    }
+    for (VkShaderModule m : modules) vkDestroyShaderModule(d, m, nullptr);
+    return pipeline;
+}
+
+void Renderer::Impl::recordCommands() {
+    const VkDevice d = context.device;
+    VkCommandPoolCreateInfo poolInfo{};
+    poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    poolInfo.queueFamilyIndex = context.queueFamily;
+    VK_CHECK(vkCreateCommandPool(d, &poolInfo, nullptr, &commandPool));
+    VkCommandBufferAllocateInfo allocate{};
+    allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    allocate.commandPool = commandPool;
+    allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    allocate.commandBufferCount = 2;
+    VkCommandBuffer commands[2];
+    VK_CHECK(vkAllocateCommandBuffers(d, &allocate, commands));
+    renderCommands = commands[0], readbackCommands = commands[1];
+    VkFenceCreateInfo fenceInfo{};
+    fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    VK_CHECK(vkCreateFence(d, &fenceInfo, nullptr, &fence));
+
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    VK_CHECK(vkBeginCommandBuffer(renderCommands, &begin));
+    VkClearValue clears[3]{};
+    toFloats(options.background, clears[0].color.float32);
+    clears[1].depthStencil = {1.0f, 0};
+    VkRenderPassBeginInfo pass{};
+    pass.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
+    pass.renderPass = renderPass;
+    pass.framebuffer = framebuffer;
+    pass.renderArea = {{0, 0}, {options.width, options.height}};
+    pass.clearValueCount = 2;
+    pass.pClearValues = clears;
+    vkCmdBeginRenderPass(renderCommands, &pass, VK_SUBPASS_CONTENTS_INLINE);
+    vkCmdBindDescriptorSets(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1, &descriptorSet, 0,
+                            nullptr);
+    const VkDeviceSize zero[2] = {0, 0};
+    if (triangleIndices) {
+        const VkBuffer meshBuffers[2] = {positions.buffer, normals.buffer};
+        vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, meshPipeline);
+        vkCmdBindVertexBuffers(renderCommands, 0, 2, meshBuffers, zero);
+        vkCmdBindIndexBuffer(renderCommands, triangles.buffer, 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(renderCommands, triangleIndices, 1, 0, 0, 0);
+    }
+    if (lineIndices) {
+        const VkBuffer lineSource = options.wireframe == Wireframe::Control ? controlPositions.buffer : positions.buffer;
+        vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, linePipeline);
+        vkCmdBindVertexBuffers(renderCommands, 0, 1, &lineSource, zero);
+        vkCmdBindIndexBuffer(renderCommands, lines.buffer, 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(renderCommands, lineIndices, 1, 0, 0, 0);
+    }
+    vkCmdEndRenderPass(renderCommands);
+    VK_CHECK(vkEndCommandBuffer(renderCommands));
+
+    // Readback: the render pass left the image in TRANSFER_SRC_OPTIMAL, its writes made
+    // visible to transfers by the pass's outgoing dependency.
+    VK_CHECK(vkBeginCommandBuffer(readbackCommands, &begin));
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {options.width, options.height, 1};
+    vkCmdCopyImageToBuffer(readbackCommands, colour.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1,
+                           &region);
+    bufferBarrier(readbackCommands, readback, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+    VK_CHECK(vkEndCommandBuffer(readbackCommands));
+}
+
+void Renderer::Impl::submitAndWait(VkCommandBuffer command) {
+    VkSubmitInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    info.commandBufferCount = 1;
+    info.pCommandBuffers = &command;
+    {
+        std::lock_guard guard(context.lock);
+        VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
+    }
+    VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));
+    VK_CHECK(vkResetFences(context.device, 1, &fence));
+}
+
+void Renderer::Impl::writeUniforms(const Camera& camera) {
+    FrameUniforms u{};
+    std::memcpy(u.view, camera.view.data(), sizeof u.view);
+    std::memcpy(u.projection, camera.projection.data(), sizeof u.projection);
+    toFloats(options.surface, u.surfaceColour);
+    toFloats(options.lines, u.lineColour);
+    // The key light: from the upper left, in front (view space, towards the light).
+    const float key[3] = {-0.45f, 0.65f, 0.61f};
+    const float length = std::sqrt(key[0] * key[0] + key[1] * key[1] + key[2] * key[2]);
+    for (int i = 0; i < 3; ++i) u.keyLight[i] = key[i] / length;
+    u.params[0] = kLinePull;
+    std::memcpy(uniforms.mapped, &u, sizeof u);
+}
+
+Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control)
+    : impl_(std::make_unique<Impl>(context.impl(), options)) {
+    Impl& r = *impl_;
+    const VulkanContext::Impl& c = r.context;
+    const std::uint32_t maxSize = c.properties.limits.maxImageDimension2D;
+    if (options.width == 0 || options.height == 0 || options.width > maxSize || options.height > maxSize)
+        throw std::invalid_argument("Renderer: image size " + std::to_string(options.width) + "x" +
+                                    std::to_string(options.height) + " is outside 1.." + std::to_string(maxSize));
+    checkPolygons(surface, "surface");
+    checkPolygons(control, "control");
+    if (options.wireframe == Wireframe::Control && control.offsets.size() < 2)
+        throw std::invalid_argument("Renderer: Wireframe::Control needs the control faces");
+    if (!queueHasGraphics(c))
+        throw VulkanError(std::string("the Vulkan context's queue (family ") + std::to_string(c.queueFamily) + " of " +
+                          c.properties.deviceName + ") cannot do graphics, which rendering needs");
+    r.vertexCount = surface.vertexCount;
+    r.controlVertexCount = control.vertexCount;
+    r.samples = chooseSamples(c.properties.limits, std::max(1u, options.samples));
+    r.options.samples = std::uint32_t(r.samples);
+    r.createBuffers(surface, control);
+    r.createImages();
+    r.createDescriptors();
+    r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, true);
+    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, false);
+    r.recordCommands();
+}
+
+Renderer::~Renderer() = default;
+
+const RenderOptions& Renderer::options() const { return impl_->options; }
+DrawTimes Renderer::lastTimes() const { return impl_->times; }
+std::uint32_t Renderer::triangleCount() const { return impl_->triangleIndices / 3; }
+std::uint32_t Renderer::lineCount() const { return impl_->lineIndices / 2; }
+
+void Renderer::setControlPositions(std::span<const float> xyz) {
+    Impl& r = *impl_;
+    const std::size_t floats = 3 * std::size_t(r.controlVertexCount);
+    assert(xyz.size() >= floats);
+    if (r.controlPositions.mapped) std::memcpy(r.controlPositions.mapped, xyz.data(), std::min(floats, xyz.size()) * 4);
+}
+
+void Renderer::draw(std::span<const float> positions, std::span<const float> normals, const Camera& camera, Image& out) {
+    Impl& r = *impl_;
+    const std::size_t floats = 3 * std::size_t(r.vertexCount);
+    assert(positions.size() >= floats && normals.size() >= floats);
+    const auto start = Clock::now();
+    std::memcpy(r.positions.mapped, positions.data(), std::min(floats, positions.size()) * 4);
+    std::memcpy(r.normals.mapped, normals.data(), std::min(floats, normals.size()) * 4);
+    r.writeUniforms(camera);
+    const auto uploaded = Clock::now();
+    r.submitAndWait(r.renderCommands);
+    const auto rendered = Clock::now();
+    r.submitAndWait(r.readbackCommands);
+    const std::size_t bytes = 4 * std::size_t(r.options.width) * r.options.height;
+    if (out.width != r.options.width || out.height != r.options.height || out.rgba.size() != bytes) {
+        out.width = r.options.width, out.height = r.options.height;
+        out.rgba.resize(bytes);
+    }
+    std::memcpy(out.rgba.data(), r.readback.mapped, bytes);
+    const auto done = Clock::now();
+    r.times = {msBetween(start, uploaded), msBetween(uploaded, rendered), msBetween(rendered, done)};
+}
+
+}  // namespace psub
