@@ -471,9 +471,11 @@ int runDemo(const DemoOptions& options) {
                 "  psub subdivide %s -o out.obj --levels %d      # refined mesh as OBJ\n"
                 "  psub subdivide %s -o cc.obj --levels %d --scheme cc\n"
                 "  psub stats %s --levels 6\n"
+                "  psub play %s --levels %d --frames 300        # animated, timed per stage\n"
+                "  psub figure5 -o pictures/                    # the paper's Figure 5 and Table I as PNG\n"
                 "  psub --help\n",
                 model.c_str(), options.levels, model.c_str(), std::max(1, options.levels / 2),
-                model.c_str());
+                model.c_str(), model.c_str(), options.levels);
     return 0;
 }
 

@@ -5,6 +5,7 @@
 #include "bench.h"
 #include "commands.h"
 #if PSUB_HAVE_RENDER
+#include "figure5.h"
 #include "render.h"
 #endif
 
@@ -252,6 +253,8 @@ int main(int argc, char** argv) {
 #if PSUB_HAVE_RENDER
     RenderCommandOptions renderOptions;
     CLI::App* re = addRenderCommand(app, renderOptions);
+    Figure5Options figure5Options;
+    CLI::App* fi = addFigure5Command(app, figure5Options);
 #endif
 
     try {
@@ -288,6 +291,7 @@ int main(int argc, char** argv) {
         if (pl->parsed()) return runPlay(playOptions);
 #if PSUB_HAVE_RENDER
         if (re->parsed()) return runRender(renderOptions);
+        if (fi->parsed()) return runFigure5(figure5Options);
 #endif
         if (be->parsed()) {
             benchOptions.dataDir = dataDir();

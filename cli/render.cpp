@@ -27,13 +27,6 @@ const std::map<std::string, Wireframe> kWireframe = {
 const std::map<std::string, Scheme> kSchemes = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
 const std::map<std::string, Backend> kBackends = {{"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}};
 
-// The refined surface, ready to draw.
-struct Drawable {
-    SurfaceTable surface;
-    std::vector<float> positions, normals;
-    std::string what;  // "P-S, 4 steps" and where it was evaluated
-};
-
 // Throws InputError when the refined surface would have more than kMaxFaces faces.
 void guardFaces(const Mesh& mesh, const Connectivity& connectivity, const RenderCommandOptions& o) {
     auto faces = [&](int levels) {
@@ -53,12 +46,12 @@ void guardFaces(const Mesh& mesh, const Connectivity& connectivity, const Render
 }
 
 // Positions (from `control`, on the chosen backend) and normals of the surface of `perLevel`.
-void evaluate(VulkanContext& context, const RenderCommandOptions& o, const PerLevelTable& perLevel,
-              std::span<const float> control, Drawable& d) {
+void evaluate(VulkanContext& context, Backend backend, const PerLevelTable& perLevel, std::span<const float> control,
+              Drawable& d) {
     const FactorizedTable none;
     d.positions.resize(3 * std::size_t(perLevel.refinedCount()));
     d.normals.resize(d.positions.size());
-    if (o.backend == Backend::Vulkan) {
+    if (backend == Backend::Vulkan) {
         VulkanEvaluator evaluator(context, perLevel, none, d.surface, TableForm::PerLevel);
         evaluator.evaluate(control, d.positions, d.normals);
         d.what += "; evaluated with Vulkan";
@@ -70,32 +63,35 @@ void evaluate(VulkanContext& context, const RenderCommandOptions& o, const PerLe
     d.what += "; evaluated on the CPU";
 }
 
-Drawable refinePS(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh,
-                  const CheckedMesh& checked) {
+}  // namespace
+
+Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels) {
     RefineOptions options;
-    options.levels = o.levels;
+    options.levels = levels;
     Refinement r = refine(mesh, checked.connectivity, options);
     Drawable d;
     d.surface = std::move(r.surface);
-    d.what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step" : " steps");
+    d.what = "P-S, " + std::to_string(levels) + (levels == 1 ? " step" : " steps");
     const std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
-    evaluate(context, o, r.perLevel, control, d);
+    evaluate(context, backend, r.perLevel, control, d);
     return d;
 }
 
 // OpenSubdiv refines the positions; normals come from a table of no levels over its faces.
-Drawable refineCC(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh) {
-    std::vector<CatmarkLevel> levels = refineCatmark(mesh.faces, mesh.positions, o.levels);
-    CatmarkLevel& finest = levels.back();
+Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, int levels) {
+    std::vector<CatmarkLevel> refined = refineCatmark(mesh.faces, mesh.positions, levels);
+    CatmarkLevel& finest = refined.back();
     Drawable d;
     d.surface = buildSurfaceTable(std::move(finest.faces));
-    d.what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + (o.levels == 1 ? " level" : " levels");
+    d.what = "Catmull-Clark (OpenSubdiv), " + std::to_string(levels) + (levels == 1 ? " level" : " levels");
     PerLevelTable identity;
     identity.controlCount = d.surface.vertexCount;
-    const std::vector<float> refined(finest.positions.begin(), finest.positions.end());
-    evaluate(context, o, identity, refined, d);
+    const std::vector<float> positions(finest.positions.begin(), finest.positions.end());
+    evaluate(context, backend, identity, positions, d);
     return d;
 }
+
+namespace {
 
 // A choice among named values: shown by name in --help, stored as the enum.
 template <class Enum>
@@ -195,7 +191,8 @@ int runRender(const RenderCommandOptions& o) {
     guardFaces(mesh, checked.connectivity, o);
     try {
         VulkanContext context;
-        const Drawable d = o.scheme == Scheme::PS ? refinePS(context, o, mesh, checked) : refineCC(context, o, mesh);
+        const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels)
+                                                  : drawableCC(context, o.backend, mesh, o.levels);
         return drawAndWrite(context, o, mesh, d);
     } catch (const VulkanError& e) {
         std::fprintf(stderr, "psub: error: render: %s\n", e.what());

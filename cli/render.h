@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -24,6 +25,20 @@ struct RenderCommandOptions {
     Backend backend = Backend::Cpu;  // where the surface is evaluated: Cpu or Vulkan
     int frames = 1;                  // draws timed (the last one is written)
 };
+
+// A refined surface with positions and normals, ready to draw.
+struct Drawable {
+    SurfaceTable surface;
+    std::vector<float> positions, normals;
+    std::string what;  // "P-S, 4 steps" and where it was evaluated
+};
+
+// P-S after `levels` steps (after the paired method when needed) of a checked mesh, evaluated
+// on `backend` (Cpu or Vulkan on `context`).
+Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels);
+
+// OpenSubdiv's Catmull-Clark after `levels` levels (0: the mesh itself), normals on `backend`.
+Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, int levels);
 
 // Adds `psub render` to `app`, parsing into `options`; returns the subcommand.
 CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& options);

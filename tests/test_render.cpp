@@ -509,6 +509,26 @@ TEST_F(RenderCommand, WritesAPng) {
     EXPECT_GT(notBackground(image, {255, 255, 255, 255}), 1000u);
 }
 
+TEST_F(RenderCommand, Figure5RowsShowPSBesideCatmullClarkOnOneCamera) {
+    ASSERT_EQ(runPsub("figure5 -o " + dir_.string() + " --panel-size 160x120"), 0);
+    for (const char* name : {"figure5_cow.png", "figure5_cube.png"}) {
+        const Image row = readPng((dir_ / name).string());
+        EXPECT_EQ(row.width, 3u * 160u) << name;
+        EXPECT_GT(row.height, 120u) << name;  // the caption band
+    }
+    // The cube row: input, P-S 4 steps, Catmull-Clark 2 levels, one camera. P-S shrinks the cube
+    // far more than Catmull-Clark does (SPEC.md, "The paper's claims"): fewer covered pixels.
+    const Image cube = readPng((dir_ / "figure5_cube.png").string());
+    std::size_t covered[3] = {0, 0, 0};
+    for (std::uint32_t y = 0; y < 120; ++y)
+        for (std::uint32_t x = 0; x < cube.width; ++x) covered[x / 160] += !(cube.pixel(x, y) == Rgba{255, 255, 255, 255});
+    EXPECT_GT(covered[0], covered[2]);
+    EXPECT_GT(covered[2], 2 * covered[1]);
+    EXPECT_GT(covered[1], 50u);
+    EXPECT_EQ(readPng((dir_ / "table1.png").string()).width, 800u);
+    EXPECT_EQ(runPsub("figure5 -o " + dir_.string() + " --panel-size 10x10"), 2);
+}
+
 TEST_F(RenderCommand, SchemesWireframesAndBackends) {
     const std::string out = (dir_ / "x.png").string();
     const std::string cube = test::dataPath("cube.obj");
