@@ -6,7 +6,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
-scripts/install-packages.sh clang libclang-rt-14-dev cmake ninja-build libosd-dev libcli11-dev
+scripts/install-packages.sh clang libclang-rt-14-dev cmake ninja-build libosd-dev libcli11-dev libeigen3-dev libpng-dev \
+  libtinygltf-dev libstb-dev nlohmann-json3-dev libglm-dev
 
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DPSUB_FUZZ=ON -DPSUB_BUILD_TESTS=OFF -DPSUB_BUILD_CLI=OFF -DPSUB_BUILD_VULKAN=OFF >/dev/null
