@@ -3,6 +3,8 @@
 // writer (a two-bone cylinder, a morphed quad, broken files), checked against hand-computed
 // poses. Global operator new is counted so that the per-frame calls can be shown not to allocate.
 #include "psub/animation.h"
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
 
 #include <gtest/gtest.h>
 #include "gltf_models.h"
@@ -175,6 +177,29 @@ TEST(Procedural, DeformingAllocatesNothing) {
     const std::size_t before = allocations.load();
     for (Procedural kind : {Procedural::Wave, Procedural::Twist, Procedural::Bend})
         deformProcedural(kind, bounds, rest, 0.7, out);
+    EXPECT_EQ(allocations.load(), before);
+}
+
+TEST(Procedural, APlaybackFrameAllocatesNothing) {
+    // What `psub play` does per frame on the CPU: deform, evaluate the tables, normals. After a
+    // first frame (OpenMP starts its threads), no frame allocates.
+    Mesh mesh = readObj(PSUB_DATA "/spot_control_mesh.obj");
+    const CheckedMesh checked = checkMesh(mesh);
+    RefineOptions options;
+    options.levels = 6;  // 23k vertices: big enough for the evaluator to use every thread
+    const Refinement r = refine(mesh, checked.connectivity, options);
+    CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 2);
+    const std::vector<float> rest(mesh.positions.begin(), mesh.positions.end());
+    const RestBounds bounds = restBounds(rest);
+    std::vector<float> control(rest.size()), refined(3 * std::size_t(evaluator.refinedCount())), normals(refined.size());
+    const auto frame = [&](int k) {
+        deformProcedural(Procedural::Twist, bounds, rest, k / 30.0, control);
+        evaluator.evaluate(control, refined);
+        evaluator.normals(refined, normals);
+    };
+    frame(0);
+    const std::size_t before = allocations.load();
+    for (int k = 1; k <= 10; ++k) frame(k);
     EXPECT_EQ(allocations.load(), before);
 }
 
