@@ -3,6 +3,7 @@
 // and the paper's Table I (faces per step of both schemes) as a table and a log-scale plot.
 #include "figure5.h"
 
+#include "options.h"
 #include "render.h"
 
 #include "psub/catmark.h"
@@ -176,20 +177,7 @@ CLI::App* addFigure5Command(CLI::App& app, Figure5Options& o) {
         "figure5", "Rebuild the paper's Figure 5 (P-S beside Catmull-Clark at equal face counts) and Table I");
     fi->add_option("-o,--output-dir", o.outputDir, "directory for figure5_cow.png, figure5_cube.png and table1.png")
         ->default_val(".");
-    fi->add_option_function<std::string>(
-          "--panel-size", [&o](const std::string& value) { std::sscanf(value.c_str(), "%ux%u", &o.panelWidth, &o.panelHeight); },
-          "size of each picture in a row, WIDTHxHEIGHT")
-        ->check(CLI::Validator(
-            [](std::string& value) {
-                unsigned w = 0, h = 0;
-                char x = 0, extra = 0;
-                const int n = std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
-                return n == 3 && x == 'x' && w >= 64 && h >= 64 && w <= 4096 && h <= 4096
-                           ? std::string()
-                           : "expected WIDTHxHEIGHT, each 64..4096 (e.g. 480x360)";
-            },
-            "WxH"))
-        ->default_str("480x360");
+    addSize(fi, "--panel-size", o.panelWidth, o.panelHeight, "size of each picture in a row", 64, "480x360");
     fi->footer("Rows: the bundled cow (input; P-S 2 steps, the paired method being the first; Catmull-Clark 1\n"
                "level) and cube (input; P-S 4 steps; Catmull-Clark 2 levels). Each row uses one camera, framing\n"
                "the input, so the shrinking of P-S shows. Drawn offscreen with Vulkan (lavapipe will do).\n"

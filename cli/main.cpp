@@ -1,6 +1,7 @@
 // psub: the command-line program. Parses arguments (CLI11) and maps outcomes to exit codes:
 // 0 success, 1 bad input (one line on stderr), 2 usage error.
 #include "analyze.h"
+#include "options.h"
 #include "play.h"
 #include "bench.h"
 #include "commands.h"
@@ -22,29 +23,11 @@ using namespace psub::cli;
 
 const std::map<std::string, Preprocess> kPreprocess = {
     {"auto", Preprocess::Auto}, {"always", Preprocess::Always}, {"never", Preprocess::Never}};
-const std::map<std::string, Scheme> kScheme = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
-const std::map<std::string, Rules> kRules = {{"paper", Rules::Paper}, {"robust", Rules::Robust}};
-const std::map<std::string, Boundary> kBoundary = {{"paper", Boundary::Paper}, {"smooth", Boundary::Smooth}};
 const std::map<std::string, Backend> kBackend = {
     {"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}, {"auto", Backend::Auto}};
 
 // Levels are capped so closed-form counts stay in 64 bits; the memory guard stops far sooner.
 constexpr int kMaxLevels = 30;
-
-// A choice among named values: shown by name in --help, stored as the enum.
-template <class Enum>
-CLI::Option* addChoice(CLI::App* command, const std::string& name, Enum& target,
-                       const std::map<std::string, Enum>& choices, const std::string& help,
-                       const std::string& defaultName) {
-    std::vector<std::string> names;
-    for (const auto& entry : choices) names.push_back(entry.first);
-    return command
-        ->add_option_function<std::string>(
-            name, [&target, &choices](const std::string& value) { target = choices.at(value); }, help)
-        ->check(CLI::IsMember(names))
-        ->type_name("TEXT")
-        ->default_str(defaultName);
-}
 
 void addPreprocess(CLI::App* command, Preprocess& target) {
     addChoice(command, "--preprocess", target, kPreprocess,
@@ -79,14 +62,14 @@ int main(int argc, char** argv) {
                     "refinement steps (P-S steps after any preprocessing; 0 writes the "
                     "preprocessed mesh)")
         ->check(CLI::Range(0, kMaxLevels))->default_val(1);
-    addChoice(sub, "--scheme", subdivide.scheme, kScheme,
+    addChoice(sub, "--scheme", subdivide.scheme, kSchemeNames,
               "ps: P-S; cc: Catmull-Clark through OpenSubdiv (edge-only boundary, no creases)", "ps");
     addPreprocess(sub, subdivide.preprocess);
-    addChoice(sub, "--rules", subdivide.rules, kRules,
+    addChoice(sub, "--rules", subdivide.rules, kRulesNames,
               "paper: SPEC.md exactly; robust (beyond the paper): interior valence 2 gets c, d, e = "
               "0, 1/3, 1/6 instead of the paper's folding -1/2, 1/2, 1/4 (--scheme ps only)",
               "paper");
-    addChoice(sub, "--boundary", subdivide.boundary, kBoundary,
+    addChoice(sub, "--boundary", subdivide.boundary, kBoundaryNames,
               "paper: SPEC.md exactly, the boundary is never refined (its triangles grow thin); "
               "smooth (beyond the paper): every second step splits the boundary edges with cubic "
               "B-spline rules, so after 2k steps the boundary is Catmull-Clark's after k (--scheme ps only)",
@@ -172,7 +155,7 @@ int main(int argc, char** argv) {
         ->default_val(2);
     co->add_option("--rules", compare.rules, "P-S rules: paper or robust")
         ->check(CLI::IsMember({"paper", "robust"}))->default_val("paper");
-    addChoice(co, "--boundary", compare.boundary, kBoundary,
+    addChoice(co, "--boundary", compare.boundary, kBoundaryNames,
               "paper: the boundary is never refined; smooth (beyond the paper): split every second step, "
               "so the boundary is Catmull-Clark's",
               "paper");

@@ -4,6 +4,8 @@
 // The frame loop allocates nothing and creates no Vulkan object.
 #include "play.h"
 
+#include "options.h"
+
 #include "psub/animation.h"
 #include "psub/evaluator.h"
 #include "psub/rules.h"
@@ -422,10 +424,7 @@ void report(const Playback& p, const Timings& t) {
                     p.verifier->frames, p.verifier->maxError);
 }
 
-const std::map<std::string, Backend> kPlayBackends = {{"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}};
 const std::map<std::string, int> kPlayWireframe = {{"none", 0}, {"refined", 1}, {"control", 2}};
-const std::map<std::string, Rules> kPlayRules = {{"paper", Rules::Paper}, {"robust", Rules::Robust}};
-const std::map<std::string, Boundary> kPlayBoundary = {{"paper", Boundary::Paper}, {"smooth", Boundary::Smooth}};
 
 }  // namespace
 
@@ -440,30 +439,13 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
                    "clip, else wave)");
     pl->add_option("--anim-fps", o.animationFps, "animation time per frame is 1/this seconds")
         ->check(CLI::Range(1.0, 10000.0))->default_val(30);
-    pl->add_option("--backend", o.backend, "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)")
-        ->transform(CLI::CheckedTransformer(kPlayBackends))->default_str("cpu");
-    pl->add_option("--rules", o.rules, "P-S rules: paper, or robust (beyond the paper)")
-        ->transform(CLI::CheckedTransformer(kPlayRules))->default_str("paper");
-    pl->add_option("--boundary", o.boundary, "paper, or smooth (beyond the paper)")
-        ->transform(CLI::CheckedTransformer(kPlayBoundary))->default_str("paper");
+    addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
+              "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
+    addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (beyond the paper)", "paper");
+    addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");
     pl->add_option("--render", o.renderDir, "also draw every frame offscreen (Vulkan) into DIR/frame_NNNN.png");
-    pl->add_option_function<std::string>(
-          "--size",
-          [&o](const std::string& value) { std::sscanf(value.c_str(), "%ux%u", &o.width, &o.height); },
-          "picture size WIDTHxHEIGHT for --render")
-        ->check(CLI::Validator(
-            [](std::string& value) {
-                unsigned w = 0, h = 0;
-                char x = 0, extra = 0;
-                const int n = std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
-                return n == 3 && x == 'x' && w >= 1 && h >= 1 && w <= 16384 && h <= 16384
-                           ? std::string()
-                           : "expected WIDTHxHEIGHT, each 1..16384 (e.g. 1280x720)";
-            },
-            "WxH"))
-        ->default_str("1280x720");
-    pl->add_option("--wireframe", o.wireframe, "with --render: none, refined or control")
-        ->transform(CLI::CheckedTransformer(kPlayWireframe))->default_str("none");
+    addSize(pl, "--size", o.width, o.height, "picture size for --render", 1, "1280x720");
+    addChoice(pl, "--wireframe", o.wireframe, kPlayWireframe, "with --render: none, refined or control", "none");
     pl->add_flag("--verify", o.verify,
                  "check every frame against refining its control points from scratch with the rule oracle "
                  "(slow; outside the timings)");

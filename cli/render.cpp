@@ -3,6 +3,8 @@
 // psub::Renderer and write the PNG atomically. Also the subcommand's CLI11 definition.
 #include "render.h"
 
+#include "options.h"
+
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -24,8 +26,6 @@ constexpr double kMaxFaces = 32.0 * 1024 * 1024;
 
 const std::map<std::string, Wireframe> kWireframe = {
     {"none", Wireframe::None}, {"refined", Wireframe::Refined}, {"control", Wireframe::Control}};
-const std::map<std::string, Scheme> kSchemes = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
-const std::map<std::string, Backend> kBackends = {{"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}};
 
 // Throws InputError when the refined surface would have more than kMaxFaces faces.
 void guardFaces(const Mesh& mesh, const Connectivity& connectivity, const RenderCommandOptions& o) {
@@ -93,20 +93,6 @@ Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, i
 
 namespace {
 
-// A choice among named values: shown by name in --help, stored as the enum.
-template <class Enum>
-void addChoice(CLI::App* command, const std::string& name, Enum& target, const std::map<std::string, Enum>& choices,
-               const std::string& help, const std::string& defaultName) {
-    std::vector<std::string> names;
-    for (const auto& entry : choices) names.push_back(entry.first);
-    command
-        ->add_option_function<std::string>(
-            name, [&target, &choices](const std::string& value) { target = choices.at(value); }, help)
-        ->check(CLI::IsMember(names))
-        ->type_name("TEXT")
-        ->default_str(defaultName);
-}
-
 double median(std::vector<double> values) {
     std::sort(values.begin(), values.end());
     return values.empty() ? 0.0 : values[values.size() / 2];
@@ -149,30 +135,11 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     re->add_option("-o,--output", o.output, "output image (.png), written atomically")->required();
     re->add_option("-l,--levels", o.levels, "refinement steps (P-S) or levels (--scheme cc)")
         ->check(CLI::Range(0, 30))->default_val(4);
-    addChoice(re, "--scheme", o.scheme, kSchemes, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
+    addChoice(re, "--scheme", o.scheme, kSchemeNames, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
     addChoice(re, "--wireframe", o.wireframe, kWireframe,
               "none; refined: the refined faces' edges; control: the input faces' edges (the cage)", "none");
-    re->add_option_function<std::string>(
-          "--size",
-          [&o](const std::string& value) {
-              unsigned w = 0, h = 0;
-              char x = 0, extra = 0;
-              std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
-              o.width = w, o.height = h;
-          },
-          "image size WIDTHxHEIGHT in pixels")
-        ->check(CLI::Validator(
-            [](std::string& value) {
-                unsigned w = 0, h = 0;
-                char x = 0, extra = 0;
-                const int n = std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra);
-                return n == 3 && x == 'x' && w >= 1 && h >= 1 && w <= 16384 && h <= 16384
-                           ? std::string()
-                           : "expected WIDTHxHEIGHT, each 1..16384 (e.g. 1280x720)";
-            },
-            "WxH"))
-        ->default_str("1280x720");
-    addChoice(re, "--backend", o.backend, kBackends,
+    addSize(re, "--size", o.width, o.height, "image size in pixels", 1, "1280x720");
+    addChoice(re, "--backend", o.backend, kCpuOrVulkan,
               "where positions and normals are evaluated: cpu or vulkan (drawing is always Vulkan)", "cpu");
     re->add_option("--frames", o.frames, "draw this many times and report the median render and readback times")
         ->check(CLI::Range(1, 10000))->default_val(1);
