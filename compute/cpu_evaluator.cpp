@@ -66,7 +66,7 @@ CpuEvaluator<T>::CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTab
         total += std::uint64_t(perLevel.levels[k].destinationCount) * width;
     }
     if (form == TableForm::PerLevel) levels_.resize(total);
-    faceNormals_.resize(3 * (surface.faceOffsets.size() - 1));
+    faceNormals_.resize(4 * (surface.faceOffsets.size() - 1));  // padded to 4: one aligned load each
 }
 
 template <class T>
@@ -109,29 +109,55 @@ void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) 
     const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
 #pragma omp parallel num_threads(team) if (team > 1)
     {
-        // Newell's normal of each face: twice its area along its normal.
+        // Newell's normal of each face: twice its area along its normal. Quads (nearly every
+        // face after a few steps) unrolled; the same operations in the same order either way.
+        T* faceNormals = faceNormals_.data();
+        const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
+        const std::uint32_t* faceVerts = surface_.faceVerts.data();
 #pragma omp for schedule(static)
         for (std::uint32_t f = 0; f < faces; ++f) {
-            T n[3] = {0, 0, 0};
-            const std::uint32_t begin = surface_.faceOffsets[f], end = surface_.faceOffsets[f + 1];
-            for (std::uint32_t c = begin; c < end; ++c) {
-                const T* a = p + surface_.faceVerts[c] * stride;
-                const T* b = p + surface_.faceVerts[c + 1 == end ? begin : c + 1] * stride;
-                n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-                n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-                n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            T n0 = 0, n1 = 0, n2 = 0;
+            const std::uint32_t begin = faceOffsets[f], end = faceOffsets[f + 1];
+            auto edge = [&](const T* a, const T* b) {
+                n0 += (a[1] - b[1]) * (a[2] + b[2]);
+                n1 += (a[2] - b[2]) * (a[0] + b[0]);
+                n2 += (a[0] - b[0]) * (a[1] + b[1]);
+            };
+            if (end - begin == 4) {
+                const T* p0 = p + faceVerts[begin] * stride;
+                const T* p1 = p + faceVerts[begin + 1] * stride;
+                const T* p2 = p + faceVerts[begin + 2] * stride;
+                const T* p3 = p + faceVerts[begin + 3] * stride;
+                edge(p0, p1);
+                edge(p1, p2);
+                edge(p2, p3);
+                edge(p3, p0);
+            } else {
+                for (std::uint32_t c = begin; c < end; ++c)
+                    edge(p + faceVerts[c] * stride, p + faceVerts[c + 1 == end ? begin : c + 1] * stride);
             }
-            std::copy(n, n + 3, &faceNormals_[3 * std::size_t(f)]);
+            faceNormals[4 * std::size_t(f)] = n0;
+            faceNormals[4 * std::size_t(f) + 1] = n1;
+            faceNormals[4 * std::size_t(f) + 2] = n2;
+            faceNormals[4 * std::size_t(f) + 3] = 0;
         }
+        // Each vertex gathers its faces' normals in table order, then normalises.
+        const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
+        const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
+        T* out = normals.data();
 #pragma omp for schedule(static)
         for (std::uint32_t v = 0; v < surface_.vertexCount; ++v) {
-            T n[3] = {0, 0, 0};
-            for (std::uint32_t i = surface_.vertexOffsets[v]; i < surface_.vertexOffsets[v + 1]; ++i)
-                for (int axis = 0; axis < 3; ++axis)
-                    n[axis] += faceNormals_[3 * std::size_t(surface_.vertexFaces[i]) + axis];
-            const T length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            T n[4] = {0, 0, 0, 0};
+            for (std::uint32_t i = vertexOffsets[v], end = vertexOffsets[v + 1]; i < end; ++i) {
+                const T* fn = faceNormals + 4 * std::size_t(vertexFaces[i]);
+                for (int axis = 0; axis < 4; ++axis) n[axis] += fn[axis];
+            }
+            const T n0 = n[0], n1 = n[1], n2 = n[2];
+            const T length = std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
             const T scale = length > 0 ? 1 / length : 0;
-            for (int axis = 0; axis < 3; ++axis) normals[3 * std::size_t(v) + axis] = n[axis] * scale;
+            out[3 * std::size_t(v)] = n0 * scale;
+            out[3 * std::size_t(v) + 1] = n1 * scale;
+            out[3 * std::size_t(v) + 2] = n2 * scale;
         }
     }
 }

@@ -18,6 +18,7 @@ layout(constant_id = PSUB_SPEC_SOURCE_STRIDE) const uint kSourceStride = 3;
 layout(constant_id = PSUB_SPEC_DESTINATION_STRIDE) const uint kDestinationStride = 3;
 layout(constant_id = PSUB_SPEC_SOURCE_WINDOWED) const bool kSourceWindowed = false;
 layout(constant_id = PSUB_SPEC_DESTINATION_WINDOWED) const bool kDestinationWindowed = false;
+layout(constant_id = PSUB_SPEC_TEXELS) const bool kTexels = false;
 
 layout(std430, binding = PSUB_BINDING_SOURCE + 0) readonly buffer Source0 { float v[]; } source0;
 layout(std430, binding = PSUB_BINDING_SOURCE + 1) readonly buffer Source1 { float v[]; } source1;
@@ -36,6 +37,23 @@ layout(std430, binding = PSUB_BINDING_DESTINATION + 0) writeonly buffer Destinat
 layout(std430, binding = PSUB_BINDING_DESTINATION + 1) writeonly buffer DestinationVector1 { vec4 v[]; } destinationVector1;
 layout(std430, binding = PSUB_BINDING_DESTINATION + 2) writeonly buffer DestinationVector2 { vec4 v[]; } destinationVector2;
 layout(std430, binding = PSUB_BINDING_DESTINATION + 3) writeonly buffer DestinationVector3 { vec4 v[]; } destinationVector3;
+
+// The input windows and the table windows as texel buffers (config.h): used when kTexels.
+layout(binding = PSUB_BINDING_SOURCE_TEXELS + 0) uniform samplerBuffer sourceTexels0;
+layout(binding = PSUB_BINDING_SOURCE_TEXELS + 1) uniform samplerBuffer sourceTexels1;
+layout(binding = PSUB_BINDING_SOURCE_TEXELS + 2) uniform samplerBuffer sourceTexels2;
+layout(binding = PSUB_BINDING_SOURCE_TEXELS + 3) uniform samplerBuffer sourceTexels3;
+layout(binding = PSUB_BINDING_TABLE_A_TEXELS) uniform usamplerBuffer tableTexelsA;
+layout(binding = PSUB_BINDING_TABLE_B_TEXELS) uniform usamplerBuffer tableTexelsB;
+layout(binding = PSUB_BINDING_TABLE_C_TEXELS) uniform usamplerBuffer tableTexelsC;
+
+// Texel `i` of input window `window` (a whole element when the stride is 4, else one float in .x).
+vec4 sourceTexel(uint window, uint i) {
+    if (!kSourceWindowed || window == 0u) return texelFetch(sourceTexels0, int(i));
+    if (window == 1u) return texelFetch(sourceTexels1, int(i));
+    if (window == 2u) return texelFetch(sourceTexels2, int(i));
+    return texelFetch(sourceTexels3, int(i));
+}
 
 // This invocation's row within the dispatch (workgroups numbered x first, then y).
 uint rowIndex() {
@@ -63,6 +81,10 @@ Place destinationPlace(uint element) {
 
 // Component `c` of the element at `p`.
 float readSource(Place p, uint c) {
+    if (kTexels) {
+        if (kSourceStride == 4u) return sourceTexel(p.window, p.first / 4u)[c];
+        return sourceTexel(p.window, p.first + c).x;
+    }
     if (!kSourceWindowed || p.window == 0u) return source0.v[p.first + c];
     if (p.window == 1u) return source1.v[p.first + c];
     if (p.window == 2u) return source2.v[p.first + c];
@@ -79,6 +101,11 @@ void writeDestination(Place p, uint c, float value) {
 // The first min(kComponents, 4) values of input element `element` (the rest 0, or whatever
 // the padding holds when the stride is 4).
 vec4 readElement(uint element) {
+    if (kTexels && kSourceStride == 4u) {
+        if (!kSourceWindowed) return texelFetch(sourceTexels0, int(element));
+        const uint window = element / pc.sourceWindowSize;
+        return sourceTexel(window, element - window * pc.sourceWindowSize);
+    }
     if (kSourceStride == 4u) {
         if (!kSourceWindowed) return sourceVector0.v[element];
         const uint window = element / pc.sourceWindowSize, local = element - window * pc.sourceWindowSize;

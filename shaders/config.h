@@ -6,8 +6,9 @@
 #define PSUB_SHADERS_CONFIG_H
 
 // Invocations per workgroup (one row each). Dispatches are 2-D when a chunk has more
-// workgroups than maxComputeWorkGroupCount[0].
-#define PSUB_WORKGROUP_SIZE 64
+// workgroups than maxComputeWorkGroupCount[0]. 128 (the least maxComputeWorkGroupInvocations
+// the specification allows) measured a few percent faster than 64 on lavapipe; 256 no faster.
+#define PSUB_WORKGROUP_SIZE 128
 
 // A vertex-like buffer (positions of a level, face normals, normals) larger than
 // maxStorageBufferRange is bound as up to this many consecutive windows.
@@ -19,9 +20,21 @@
 #define PSUB_BINDING_SOURCE 0        // PSUB_BINDING_SOURCE + w, w < PSUB_VERTEX_WINDOWS
 #define PSUB_BINDING_DESTINATION 4   // PSUB_BINDING_DESTINATION + w
 #define PSUB_BINDING_TABLE_A 8       // level: group records; CSR kernels: chunk-relative offsets
-#define PSUB_BINDING_TABLE_B 9       // level: destinations; CSR kernels: column indices
-#define PSUB_BINDING_TABLE_C 10      // level: source indices; factorized: weights
-#define PSUB_BINDING_COUNT 11
+#define PSUB_BINDING_TABLE_B 9       // level: row words (as TABLE_C); CSR kernels: column indices
+#define PSUB_BINDING_TABLE_C 10      // level: row words (sources, destination); factorized: weights
+// The same input windows and table windows again as uniform texel buffers (read with
+// texelFetch when PSUB_SPEC_TEXELS is on): the input as R32G32B32A32_SFLOAT when its stride is
+// 4 floats, else R32_SFLOAT (one texel per float); each table as R32_UINT, or as
+// R32G32B32A32_UINT where a kernel fetches 4 words at once (level rows, quads' corners, vertex
+// faces). lavapipe fetches
+// texels with straight-line gathers, where it runs every non-uniform storage-buffer load as a
+// loop over the SIMD lanes with a bounds check and a branch per lane and value.
+#define PSUB_BINDING_SOURCE_TEXELS 11   // PSUB_BINDING_SOURCE_TEXELS + w, w < PSUB_VERTEX_WINDOWS
+#define PSUB_BINDING_TABLE_A_TEXELS 15
+#define PSUB_BINDING_TABLE_B_TEXELS 16
+#define PSUB_BINDING_TABLE_C_TEXELS 17
+#define PSUB_BINDING_STORAGE_COUNT 11   // bindings below this are storage buffers, the rest texel buffers
+#define PSUB_BINDING_COUNT 18
 
 // Specialization constants, fixed per pipeline.
 #define PSUB_SPEC_COMPONENTS 0         // values combined per element (the evaluator's width; 3 for normals)
@@ -29,14 +42,20 @@
 #define PSUB_SPEC_DESTINATION_STRIDE 2 // floats per output element
 #define PSUB_SPEC_SOURCE_WINDOWED 3    // the input is bound as more than one window
 #define PSUB_SPEC_DESTINATION_WINDOWED 4
+#define PSUB_SPEC_TEXELS 5             // inputs and tables are read through the texel-buffer bindings
+#define PSUB_SPEC_ROW_N 6              // level kernel: the rows' edge count when compiled in (0xffffffff: any)
+#define PSUB_SPEC_ROW_M 7              // level kernel: the rows' diagonal count likewise
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once
 //   rowBase            the first row's element number in the output (CSR kernels)
-//   groupBase          level kernel: first group record of this chunk
-//   groupCount         level kernel: group records of this chunk (at least 1 when rows > 0)
-//   tableBase          level kernel: first destination in the TABLE_B window;
-//                      CSR kernels: first offset in the TABLE_A window
+//   groupBase          level kernel: this dispatch's group record in the TABLE_A window;
+//                      vertex normals, fixed layout: the input element that holds zero
+//   groupCount         level kernel: 1 (one group per dispatch); vertex normals, fixed
+//                      layout: uvec4s of words per vertex (2)
+//   tableBase          CSR kernels: first offset in the TABLE_A window; face normals of
+//                      quads and vertex normals of the fixed layout: first word of the
+//                      dispatch in the TABLE_B window (a multiple of 4)
 //   sourceWindowSize   elements per input window (when windowed)
 //   destinationWindowSize
 //   pad
@@ -50,9 +69,11 @@
     uint destinationWindowSize;                                                                \
     uint pad;
 
-// One row group of the per-level table as seen by one chunk (std430, 32 bytes): rows
-// rowBegin.. (chunk-relative) have 1 + n + m source indices from indexBegin (relative to the
-// chunk's index window): the centre, n edge neighbours, m diagonals, with these weights.
+// One row group of the per-level table as seen by one dispatch (std430, 32 bytes): row r of
+// the dispatch (rowBegin is 0) has its words from indexBegin + r * stride (relative to the
+// TABLE_C window; stride = 1 + n + m + 1 rounded up to a multiple of 4): 1 + n + m source
+// indices (the centre, n edge neighbours, m diagonals, with these weights), then its
+// destination.
 #define PSUB_GROUP_RECORD_MEMBERS                                                               \
     uint rowBegin;                                                                             \
     uint indexBegin;                                                                           \

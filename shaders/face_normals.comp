@@ -9,15 +9,36 @@
 layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Offsets { uint offsets[]; };
 layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Corners { uint corners[]; };
 
+uint offsetAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)).x : offsets[i]; }
+uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : corners[i]; }
+
+// PSUB_SPEC_ROW_N = 4: every face is a quad, its corners at 4 row from pc.tableBase in the
+// TABLE_B window (no offsets; one uvec4 fetch).
+layout(constant_id = PSUB_SPEC_ROW_N) const uint kCorners = 0xffffffffu;
+
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
-    const uint begin = offsets[pc.tableBase + row], end = offsets[pc.tableBase + row + 1u];
     precise vec3 n = vec3(0.0);
-    const vec3 first = readElement(corners[begin]).xyz;
+    if (kCorners == 4u) {
+        const uint base = pc.tableBase + 4u * row;
+        const uvec4 c = kTexels ? texelFetch(tableTexelsB, int(base / 4u))
+                                : uvec4(corners[base], corners[base + 1u], corners[base + 2u], corners[base + 3u]);
+        const vec3 p[4] = vec3[4](readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz, readElement(c.w).xyz);
+        for (uint k = 0u; k < 4u; ++k) {
+            const vec3 a = p[k], b = p[(k + 1u) & 3u];
+            n.x += (a.y - b.y) * (a.z + b.z);
+            n.y += (a.z - b.z) * (a.x + b.x);
+            n.z += (a.x - b.x) * (a.y + b.y);
+        }
+        writeElement(pc.rowBase + row, vec4(n, 0.0));
+        return;
+    }
+    const uint begin = offsetAt(pc.tableBase + row), end = offsetAt(pc.tableBase + row + 1u);
+    const vec3 first = readElement(entryAt(begin)).xyz;
     vec3 a = first;
     for (uint c = begin; c < end; ++c) {
-        const vec3 b = c + 1u < end ? readElement(corners[c + 1u]).xyz : first;
+        const vec3 b = c + 1u < end ? readElement(entryAt(c + 1u)).xyz : first;
         n.x += (a.y - b.y) * (a.z + b.z);
         n.y += (a.z - b.z) * (a.x + b.x);
         n.z += (a.x - b.x) * (a.y + b.y);

@@ -9,21 +9,25 @@ layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Offsets { uint of
 layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Indices { uint indices[]; };
 layout(std430, binding = PSUB_BINDING_TABLE_C) readonly buffer Weights { float weights[]; };
 
+uint offsetAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)).x : offsets[i]; }
+uint indexAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : indices[i]; }
+float weightAt(uint i) { return kTexels ? uintBitsToFloat(texelFetch(tableTexelsC, int(i)).x) : weights[i]; }
+
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
-    const uint begin = offsets[pc.tableBase + row], end = offsets[pc.tableBase + row + 1u];
+    const uint begin = offsetAt(pc.tableBase + row), end = offsetAt(pc.tableBase + row + 1u);
     if (kComponents <= 4u) {  // one vec4 per source
         precise vec4 total = vec4(0.0);
-        for (uint j = begin; j < end; ++j) total += weights[j] * readElement(indices[j]);
+        for (uint j = begin; j < end; ++j) total += weightAt(j) * readElement(indexAt(j));
         writeElement(pc.rowBase + row, total);
         return;
     }
     precise float sum[kComponents];
     for (uint i = 0u; i < kComponents; ++i) sum[i] = 0.0;
     for (uint j = begin; j < end; ++j) {
-        const Place p = sourcePlace(indices[j]);
-        const float w = weights[j];
+        const Place p = sourcePlace(indexAt(j));
+        const float w = weightAt(j);
         for (uint i = 0u; i < kComponents; ++i) sum[i] += w * readSource(p, i);
     }
     const Place target = destinationPlace(pc.rowBase + row);

@@ -1,72 +1,81 @@
 #version 450
-// shaders/level.comp: one level of the per-level, kind-coded stencil table. One dispatch per
-// level (or per chunk of a level too large for one binding): row r of the chunk finds its row
-// group (a binary search over the chunk's few group records), then sums its sources with the
-// group's three weights: centre, edge neighbours, diagonals. Rows of a group are contiguous,
-// so a workgroup almost never sees two groups. Same arithmetic, in the same order, as the CPU
-// kernel (psub/evaluator.h), with no contraction into fused multiply-adds.
+// shaders/level.comp: one row group of one level of the per-level, kind-coded stencil table
+// (one dispatch per group, or per chunk of a group too large for one binding). The group's
+// record gives the shape (n edge neighbours, m diagonals), the three weights and where its rows
+// start; row r's words are its 1 + n + m source indices, then its destination, padded to a
+// multiple of 4 (one uvec4 fetch per 4 words). The common shapes are compiled in
+// (PSUB_SPEC_ROW_N/M): their loops unroll and the words are fetched up front. Same arithmetic,
+// in the same order, as the CPU kernel (psub/evaluator.h), with no contraction into fused
+// multiply-adds.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
 struct GroupRecord { PSUB_GROUP_RECORD_MEMBERS };
 
+layout(constant_id = PSUB_SPEC_ROW_N) const uint kRowN = 0xffffffffu;
+layout(constant_id = PSUB_SPEC_ROW_M) const uint kRowM = 0xffffffffu;
+const bool kFixedShape = kRowN != 0xffffffffu && kRowM != 0xffffffffu;
+// Words per row of a compiled-in shape, and its uvec4 count (at most 3: valence 4).
+const uint kFixedStride = kFixedShape ? ((2u + kRowN + kRowM + 3u) & ~3u) : 4u;
+
 layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Groups { GroupRecord groups[]; };
+// TABLE_B and TABLE_C bind the same window of row words (storage-buffer path).
 layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Destinations { uint destinations[]; };
 layout(std430, binding = PSUB_BINDING_TABLE_C) readonly buffer Indices { uint indices[]; };
 
-// The last group record of this chunk starting at or before `row` (binary search).
-uint findGroup(uint row) {
-    uint lo = 0u, hi = pc.groupCount - 1u;
-    while (lo < hi) {
-        const uint mid = (lo + hi + 1u) >> 1;
-        if (groups[pc.groupBase + mid].rowBegin <= row) lo = mid;
-        else hi = mid - 1u;
-    }
-    return lo;
+uint groupWord(uint i, uint word) { return texelFetch(tableTexelsA, int(8u * i + word)).x; }
+GroupRecord groupAt(uint i) {
+    if (!kTexels) return groups[i];
+    return GroupRecord(groupWord(i, 0u), groupWord(i, 1u), groupWord(i, 2u), groupWord(i, 3u),
+                       uintBitsToFloat(groupWord(i, 4u)), uintBitsToFloat(groupWord(i, 5u)),
+                       uintBitsToFloat(groupWord(i, 6u)), 0u);
 }
 
-void applyRow(uint row, GroupRecord g) {
-    const uint base = g.indexBegin + (row - g.rowBegin) * (1u + g.n + g.m);
+// Word j of the row whose words start at `base` (a multiple of 4); `q` holds the row's words
+// when the shape is compiled in.
+uint rowWord(uvec4 q[3], uint base, uint j, uint count) {
+    if (kTexels && kFixedShape) return q[j >> 2][j & 3u];
+    if (kTexels) return texelFetch(tableTexelsC, int((base + j) >> 2))[(base + j) & 3u];
+    return j == count ? destinations[base + j] : indices[base + j];
+}
+
+void main() {
+    const uint row = rowIndex();
+    if (row >= pc.rowCount) return;
+    const GroupRecord g = groupAt(pc.groupBase);
+    const uint n = kFixedShape ? kRowN : g.n, m = kFixedShape ? kRowM : g.m;
+    const uint count = 1u + n + m;  // sources; the destination is word `count`
+    const uint stride = kFixedShape ? kFixedStride : (count + 4u) & ~3u;
+    const uint base = g.indexBegin + row * stride;
+    uvec4 q[3];
+    if (kTexels && kFixedShape)
+        for (uint k = 0u; k < 3u; ++k) q[k] = 4u * k < kFixedStride ? texelFetch(tableTexelsC, int(base / 4u + k)) : uvec4(0u);
     if (kComponents <= 4u) {  // one vec4 per source
-        precise vec4 centre = g.centre * readElement(indices[base]), edges = vec4(0.0), diagonals = vec4(0.0);
-        for (uint j = 1u; j <= g.n; ++j) edges += readElement(indices[base + j]);
-        for (uint j = 1u + g.n; j <= g.n + g.m; ++j) diagonals += readElement(indices[base + j]);
+        precise vec4 centre = g.centre * readElement(rowWord(q, base, 0u, count)), edges = vec4(0.0), diagonals = vec4(0.0);
+        for (uint j = 1u; j <= n; ++j) edges += readElement(rowWord(q, base, j, count));
+        for (uint j = 1u + n; j <= n + m; ++j) diagonals += readElement(rowWord(q, base, j, count));
         precise vec4 value = centre + g.edge * edges + g.diagonal * diagonals;
-        writeElement(destinations[pc.tableBase + row], value);
+        writeElement(rowWord(q, base, count, count), value);
         return;
     }
     precise float centre[kComponents], edges[kComponents], diagonals[kComponents];
-    const Place c = sourcePlace(indices[base]);
+    const Place c = sourcePlace(rowWord(q, base, 0u, count));
     for (uint i = 0u; i < kComponents; ++i) {
         centre[i] = g.centre * readSource(c, i);
         edges[i] = 0.0;
         diagonals[i] = 0.0;
     }
-    for (uint j = 1u; j <= g.n; ++j) {
-        const Place p = sourcePlace(indices[base + j]);
+    for (uint j = 1u; j <= n; ++j) {
+        const Place p = sourcePlace(rowWord(q, base, j, count));
         for (uint i = 0u; i < kComponents; ++i) edges[i] += readSource(p, i);
     }
-    for (uint j = 1u + g.n; j <= g.n + g.m; ++j) {
-        const Place p = sourcePlace(indices[base + j]);
+    for (uint j = 1u + n; j <= n + m; ++j) {
+        const Place p = sourcePlace(rowWord(q, base, j, count));
         for (uint i = 0u; i < kComponents; ++i) diagonals[i] += readSource(p, i);
     }
-    const Place target = destinationPlace(destinations[pc.tableBase + row]);
+    const Place target = destinationPlace(rowWord(q, base, count, count));
     for (uint i = 0u; i < kComponents; ++i) {
         precise float value = centre[i] + g.edge * edges[i] + g.diagonal * diagonals[i];
         writeDestination(target, i, value);
     }
-}
-
-void main() {
-    // The group is looked up once per workgroup (the same for all its invocations, so the
-    // loads are uniform); only a workgroup that straddles two groups looks up per row.
-    const uint first = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * PSUB_WORKGROUP_SIZE;
-    const uint found = findGroup(first);
-    const GroupRecord g = groups[pc.groupBase + found];
-    const uint last = min(first + PSUB_WORKGROUP_SIZE, pc.rowCount) - 1u;
-    const bool straddles = found + 1u < pc.groupCount && groups[pc.groupBase + found + 1u].rowBegin <= last;
-    const uint row = first + gl_LocalInvocationID.x;
-    if (row >= pc.rowCount) return;
-    if (!straddles) applyRow(row, g);
-    else applyRow(row, groups[pc.groupBase + findGroup(row)]);
 }

@@ -9,12 +9,45 @@
 layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Offsets { uint offsets[]; };
 layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Faces { uint faces[]; };
 
+uint offsetAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)).x : offsets[i]; }
+uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : faces[i]; }
+
+// PSUB_SPEC_ROW_N = 8: every vertex is in at most 8 faces; vertex row's 8 words (its faces in
+// table order, then pc.groupBase: an element of the input that holds zero) sit at 8 row from
+// pc.tableBase (no offsets; pc.groupCount = 2 uvec4s). The first four are added unconditionally (adding +0 changes no
+// sum), the next four in a loop that lavapipe skips unless a lane of the SIMD group needs it.
+layout(constant_id = PSUB_SPEC_ROW_N) const uint kWords = 0xffffffffu;
+
+uvec4 vertexWords(uint i) {
+    if (kTexels) return texelFetch(tableTexelsB, int(i));
+    return uvec4(faces[4u * i], faces[4u * i + 1u], faces[4u * i + 2u], faces[4u * i + 3u]);
+}
+
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
-    const uint begin = offsets[pc.tableBase + row], end = offsets[pc.tableBase + row + 1u];
     precise vec3 n = vec3(0.0);
-    for (uint j = begin; j < end; ++j) n += readElement(faces[j]).xyz;
+    if (kWords == 8u) {
+        const uint base = (pc.tableBase + 8u * row) / 4u;
+        const uvec4 q = vertexWords(base);
+        n += readElement(q.x).xyz;
+        n += readElement(q.y).xyz;
+        n += readElement(q.z).xyz;
+        n += readElement(q.w).xyz;
+        // pc.groupCount (2) uvec4 per vertex: a bound the compiler cannot see, so that it keeps
+        // the loop (an unrolled one would be a branch, whose both sides lavapipe runs).
+        for (uint k = 1u; k < pc.groupCount; ++k) {
+            const uvec4 r = vertexWords(base + k);
+            if (r.x == pc.groupBase) break;
+            n += readElement(r.x).xyz;
+            n += readElement(r.y).xyz;
+            n += readElement(r.z).xyz;
+            n += readElement(r.w).xyz;
+        }
+    } else {
+        const uint begin = offsetAt(pc.tableBase + row), end = offsetAt(pc.tableBase + row + 1u);
+        for (uint j = begin; j < end; ++j) n += readElement(entryAt(j)).xyz;
+    }
     precise float size = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
     precise float scale = size > 0.0 ? 1.0 / size : 0.0;
     writeElement(pc.rowBase + row, vec4(n * scale, 0.0));

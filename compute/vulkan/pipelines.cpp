@@ -105,7 +105,10 @@ Pipelines::Pipelines(VkDevice device) : device_(device) {
     try {
         VkDescriptorSetLayoutBinding bindings[PSUB_BINDING_COUNT];
         for (uint i = 0; i < PSUB_BINDING_COUNT; ++i)
-            bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+            bindings[i] = {i,
+                           i < PSUB_BINDING_STORAGE_COUNT ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+                                                          : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER,
+                           1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
         VkDescriptorSetLayoutCreateInfo setInfo{};
         setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
         setInfo.bindingCount = PSUB_BINDING_COUNT;
@@ -155,18 +158,22 @@ void Pipelines::release() {
 }
 
 VkPipeline Pipelines::get(Kernel kernel, const Specialization& s) {
-    const auto [components, sourceStride, destinationStride, sourceWindowed, destinationWindowed] = s.key();
-    const auto key = std::tuple(int(kernel), components, sourceStride, destinationStride, sourceWindowed, destinationWindowed);
+    const auto [components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN, rowM] =
+        s.key();
+    const auto key = std::tuple(int(kernel), components, sourceStride, destinationStride, sourceWindowed,
+                                destinationWindowed, texels, rowN, rowM);
     std::lock_guard guard(lock_);
     if (auto found = pipelines_.find(key); found != pipelines_.end()) return found->second;
 
-    const std::uint32_t values[5] = {components, sourceStride, destinationStride, VkBool32(sourceWindowed),
-                                     VkBool32(destinationWindowed)};
-    VkSpecializationMapEntry entries[5];
-    const std::uint32_t ids[5] = {PSUB_SPEC_COMPONENTS, PSUB_SPEC_SOURCE_STRIDE, PSUB_SPEC_DESTINATION_STRIDE,
-                                  PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED};
-    for (std::uint32_t i = 0; i < 5; ++i) entries[i] = {ids[i], 4 * i, 4};
-    VkSpecializationInfo specialization{5, entries, sizeof values, values};
+    constexpr std::uint32_t count = 8;
+    const std::uint32_t values[count] = {components,           sourceStride,      destinationStride, VkBool32(sourceWindowed),
+                                         VkBool32(destinationWindowed), VkBool32(texels), rowN,              rowM};
+    VkSpecializationMapEntry entries[count];
+    const std::uint32_t ids[count] = {PSUB_SPEC_COMPONENTS,      PSUB_SPEC_SOURCE_STRIDE,        PSUB_SPEC_DESTINATION_STRIDE,
+                                      PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED, PSUB_SPEC_TEXELS,
+                                      PSUB_SPEC_ROW_N,           PSUB_SPEC_ROW_M};
+    for (std::uint32_t i = 0; i < count; ++i) entries[i] = {ids[i], 4 * i, 4};
+    VkSpecializationInfo specialization{count, entries, sizeof values, values};
     VkComputePipelineCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
     info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;

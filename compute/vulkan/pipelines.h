@@ -32,9 +32,12 @@ inline constexpr int kKernelCount = 4;
 struct Specialization {
     uint components = 3, sourceStride = 3, destinationStride = 3;
     bool sourceWindowed = false, destinationWindowed = false;
+    bool texels = false;  // inputs and tables read through the texel-buffer bindings
+    uint rowN = ~0u, rowM = ~0u;  // level kernel: the rows' shape when compiled in (~0u: any)
 
     auto key() const {
-        return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed);
+        return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN,
+                          rowM);
     }
 };
 
@@ -68,7 +71,7 @@ private:
     VkPipelineCache cache_ = VK_NULL_HANDLE;
     VkShaderModule modules_[kKernelCount] = {};
     std::mutex lock_;
-    std::map<std::tuple<int, uint, uint, uint, bool, bool>, VkPipeline> pipelines_;
+    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint>, VkPipeline> pipelines_;
 };
 
 }  // namespace psub::vulkan

@@ -12,7 +12,10 @@
 #include <algorithm>
 #include <cassert>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
+#include <map>
+#include <tuple>
 #include <string>
 
 namespace psub {
@@ -22,8 +25,8 @@ using namespace vulkan;
 namespace {
 
 constexpr std::uint32_t kMaxWidth = 16;
-constexpr VkBufferUsageFlags kUsage =
-    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+constexpr VkBufferUsageFlags kUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
 
 // Frame kinds: which parts a frame's command buffer holds.
 enum : unsigned {
@@ -35,6 +38,20 @@ enum : unsigned {
     kFrameKinds = 32,
 };
 enum : std::uint32_t { kQueryStart, kQueryStencils, kQueryNormals, kQueryEnd, kQueryCount };
+
+// Copies `count` elements of `width` floats between buffers of `fromStride` and `toStride`
+// floats per element; padding values written are 0.
+void copyElements(float* to, std::uint32_t toStride, const float* from, std::uint32_t fromStride, std::size_t count,
+                  std::uint32_t width) {
+    if (toStride == width && fromStride == width) {
+        if (count) std::memcpy(to, from, count * width * sizeof(float));
+        return;
+    }
+    for (std::size_t v = 0; v < count; ++v) {
+        for (std::uint32_t i = 0; i < width; ++i) to[v * toStride + i] = from[v * fromStride + i];
+        for (std::uint32_t i = width; i < toStride; ++i) to[v * toStride + i] = 0.0f;
+    }
+}
 
 std::string mib(std::uint64_t bytes) {
     return bytes < (1u << 20) ? std::to_string((bytes + 1023) >> 10) + " KiB"
@@ -58,10 +75,14 @@ struct Window {
     std::uint64_t firstElement = 0;
 };
 
+constexpr std::uint32_t kAnyShape = ~0u;
+
 struct Dispatch {
     VkDescriptorSet set = VK_NULL_HANDLE;
     PushConstants push{};
     std::uint32_t groupsX = 0, groupsY = 0;
+    std::uint32_t rowN = kAnyShape, rowM = kAnyShape;  // level kernel: the rows' shape, when compiled in
+    VkFormat texelFormats[3] = {VK_FORMAT_R32_UINT, VK_FORMAT_R32_UINT, VK_FORMAT_R32_UINT};  // table texel views
     // What the descriptor set binds (written once, at construction).
     const VertexBuffer* source = nullptr;
     const VertexBuffer* destination = nullptr;
@@ -100,6 +121,23 @@ public:
         } else if (bytes) {
             staging_.push_back(createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Memory::Upload, true));
             std::memcpy(staging_.back().mapped, data.data(), bytes);
+            copies_.push_back({staging_.back().buffer, b.buffer, bytes});
+        }
+        return b;
+    }
+
+    // A buffer of `count` T written in place by fill(T*) (no copy of the data on the heap).
+    template <class T, class Fill>
+    Buffer uploadFilled(std::size_t count, Fill fill, std::vector<Buffer>& owner) {
+        const VkDeviceSize bytes = count * sizeof(T);
+        owner.push_back(createBuffer(context_, bytes, kUsage, Memory::Device, direct_));
+        const Buffer b = owner.back();
+        if (!bytes) return b;
+        if (direct_) {
+            fill(static_cast<T*>(b.mapped));
+        } else {
+            staging_.push_back(createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, Memory::Upload, true));
+            fill(static_cast<T*>(staging_.back().mapped));
             copies_.push_back({staging_.back().buffer, b.buffer, bytes});
         }
         return b;
@@ -158,6 +196,7 @@ struct VulkanEvaluator::Impl {
     VulkanContext::Impl& context;
     std::uint32_t width, controls, refined;
     bool staging = false;
+    bool texels = false;  // kernels read inputs and tables through texel buffers (config.h)
     std::uint64_t limit = 0, alignment = 16, maxRows = 0;
 
     std::vector<VertexBuffer> levels;   // levels[0]: control points; levels.back(): refined (may be levels[0])
@@ -168,6 +207,7 @@ struct VulkanEvaluator::Impl {
     bool hasSurface = false;
 
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    std::vector<VkBufferView> views;  // the texel-buffer bindings of every dispatch
     VkCommandPool commandPool = VK_NULL_HANDLE;
     VkCommandBuffer frames[kFrameKinds] = {};
     VkFence fence = VK_NULL_HANDLE;
@@ -292,59 +332,63 @@ Dispatch VulkanEvaluator::Impl::dispatch(std::uint64_t rows) const {
     return d;
 }
 
+// Row shapes (n edge neighbours, m diagonals) with a pipeline of their own, the loop counts
+// compiled in: face quads and triangles, retained vertices, valence 3 and 4 vertices.
+bool specialisedShape(std::uint32_t n, std::uint32_t m) {
+    return (n == 3 && m == 0) || (n == 4 && m == 4) || (n == 0 && m == 0) || (n == 2 && m == 0) || (n == 3 && m == 3);
+}
+
 void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& uploader) {
+    // The device's copy of the table: each row's 1 + n + m source indices, then its
+    // destination, padded to a multiple of 4 words (fetched as uvec4: one fetch per 4 words).
+    // One dispatch per group (per chunk of a group too large for one binding): the group's
+    // record gives the weights and where its rows start; its shape picks the pipeline.
+    std::uint64_t wordCount = 0;
     std::vector<GroupRecord> records;
     struct Pending {
         std::size_t level;
         Dispatch dispatch;
-        std::uint64_t groupBegin, groupEnd, destinationBegin, destinationEnd, indexBegin, indexEnd;
+        std::uint64_t record, wordBegin, wordEnd;
     };
     std::vector<Pending> pending;
     for (std::size_t k = 0; k < table.levels.size(); ++k) {
         const StencilLevel& level = table.levels[k];
-        const std::uint64_t rows = level.rowEnd - level.rowBegin;
-        // The level's groups: first row (level-relative) and first index of each.
-        std::vector<std::uint64_t> firstRow, firstIndex;
-        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g)
-            if (table.groups[g].rowCount) {
-                firstRow.push_back(table.groups[g].rowBegin - level.rowBegin);
-                firstIndex.push_back(g);
+        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+            const RowGroup& g = table.groups[gi];
+            if (g.rowCount == 0) continue;
+            const std::uint64_t stride = (std::uint64_t(g.width) + 4) / 4 * 4;
+            const std::uint64_t groupWords = wordCount;
+            wordCount += g.rowCount * stride;
+            const auto chunks = split(
+                g.rowCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * stride * (b - a)); }, "per-level table");
+            for (const auto& [a, b] : chunks) {
+                Pending p{k, dispatch(b - a), records.size(), groupWords + a * stride, groupWords + b * stride};
+                p.dispatch.rowN = specialisedShape(g.n, g.m) ? g.n : kAnyShape;
+                p.dispatch.rowM = specialisedShape(g.n, g.m) ? g.m : kAnyShape;
+                const std::uint64_t wordFirst = p.wordBegin * 4 / alignment * alignment / 4;
+                records.push_back({0, std::uint32_t(p.wordBegin - wordFirst), g.n, g.m, float(g.centre), float(g.edge),
+                                   float(g.diagonal), 0});
+                pending.push_back(p);
             }
-        auto groupOf = [&](std::uint64_t row) {  // position in firstRow of the group holding row
-            return std::size_t(std::upper_bound(firstRow.begin(), firstRow.end(), row) - firstRow.begin()) - 1;
-        };
-        auto indexAt = [&](std::uint64_t row) {  // first index of `row` (row == rows: end of the level)
-            if (row == rows) {
-                const RowGroup& g = table.groups[firstIndex.back()];
-                return g.indexBegin + g.rowCount * g.width;
-            }
-            const RowGroup& g = table.groups[firstIndex[groupOf(row)]];
-            return g.indexBegin + (row - firstRow[groupOf(row)]) * g.width;
-        };
-        const auto chunks = split(
-            rows,
-            [&](std::uint64_t a, std::uint64_t b) {
-                return fits(4 * (indexAt(b) - indexAt(a))) && fits(4 * (b - a)) &&
-                       fits(sizeof(GroupRecord) * (groupOf(b - 1) - groupOf(a) + 1));
-            },
-            "per-level table");
-        for (const auto& [a, b] : chunks) {
-            Pending p{k, dispatch(b - a), records.size(), 0, level.rowBegin + a, level.rowBegin + b, indexAt(a), indexAt(b)};
-            const std::uint64_t indexFirst = p.indexBegin * 4 / alignment * alignment / 4;
-            for (std::size_t i = groupOf(a); i <= groupOf(b - 1); ++i) {
-                const RowGroup& g = table.groups[firstIndex[i]];
-                const std::uint64_t first = std::max(firstRow[i], a);
-                records.push_back({std::uint32_t(first - a),
-                                   std::uint32_t(g.indexBegin + (first - firstRow[i]) * g.width - indexFirst), g.n, g.m,
-                                   float(g.centre), float(g.edge), float(g.diagonal), 0});
-            }
-            p.groupEnd = records.size();
-            pending.push_back(p);
         }
     }
     const Buffer groups = uploader.upload(records, tables);
-    const Buffer destinations = uploader.upload(table.destinations, tables);
-    const Buffer indices = uploader.upload(table.indices, tables);
+    const Buffer rows = uploader.uploadFilled<std::uint32_t>(
+        wordCount,
+        [&](std::uint32_t* words) {
+            for (const StencilLevel& level : table.levels)
+                for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+                    const RowGroup& g = table.groups[gi];
+                    const std::uint64_t stride = (std::uint64_t(g.width) + 4) / 4 * 4;
+                    for (std::uint64_t r = 0; r < g.rowCount; ++r, words += stride) {
+                        const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
+                        std::copy(ix, ix + g.width, words);
+                        words[g.width] = table.destinations[g.rowBegin + r];
+                        std::fill(words + g.width + 1, words + stride, 0u);
+                    }
+                }
+        },
+        tables);
     for (std::size_t k = 0; k < table.levels.size(); ++k) {
         Stage stage;
         stage.kernel = Kernel::Level;
@@ -356,12 +400,12 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             Dispatch& d = p.dispatch;
             d.source = &levels[k];
             d.destination = &levels[k + 1];
-            d.tables[0] = window(groups, sizeof(GroupRecord), p.groupBegin, p.groupEnd);
-            d.tables[1] = window(destinations, 4, p.destinationBegin, p.destinationEnd);
-            d.tables[2] = window(indices, 4, p.indexBegin, p.indexEnd);
-            d.push.groupBase = std::uint32_t(p.groupBegin - d.tables[0].firstElement);
-            d.push.groupCount = std::uint32_t(p.groupEnd - p.groupBegin);
-            d.push.tableBase = std::uint32_t(p.destinationBegin - d.tables[1].firstElement);
+            d.tables[0] = window(groups, sizeof(GroupRecord), p.record, p.record + 1);
+            d.tables[1] = window(rows, 4, p.wordBegin, p.wordEnd);
+            d.tables[2] = d.tables[1];
+            d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+            d.push.groupBase = std::uint32_t(p.record - d.tables[0].firstElement);
+            d.push.groupCount = 1;
             d.push.sourceWindowSize = levels[k].windowSize;
             d.push.destinationWindowSize = levels[k + 1].windowSize;
             stage.dispatches.push_back(d);
@@ -399,16 +443,46 @@ void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Upload
 
 void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& uploader) {
     const std::uint64_t faces = surface.faceOffsets.size() - 1;
-    makeVertexBuffer(faceNormals, faces, 4, false);  // padded: read and written as vec4
-    makeVertexBuffer(normals, surface.vertexCount, 3, true);
+    // Padded: read and written as vec4. One element more, after the faces': zero, cleared by
+    // every frame, for the fixed vertex layout's unused slots.
+    makeVertexBuffer(faceNormals, faces + 1, 4, false);
+    makeVertexBuffer(normals, surface.vertexCount, 4, true);  // padded: written as vec4, read back as xyz
     std::vector<std::uint32_t> faceRelative, vertexRelative;
     const std::vector<CsrChunk> faceChunks = splitCsr(surface.faceOffsets, faceRelative, "surface's faces");
-    const std::vector<CsrChunk> vertexChunks = splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
     const Buffer faceOffsets = uploader.upload(faceRelative, tables);
     const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
-    const Buffer vertexOffsets = uploader.upload(vertexRelative, tables);
-    const Buffer vertexFaces = uploader.upload(surface.vertexFaces, tables);
     const VertexBuffer& positions = refinedBuffer();
+    // Two fixed layouts that save the kernels their offset loads (one uvec4 fetch per 4 words):
+    // all faces quads (corners of face f at 4 f), and every vertex in at most 8 faces (vertex
+    // v's 8 words at 8 v: its faces in table order, then the zero element's number).
+    bool allQuads = faces > 0;
+    for (std::uint64_t f = 0; f < faces && allQuads; ++f) allQuads = surface.faceOffsets[f + 1] - surface.faceOffsets[f] == 4;
+    constexpr std::uint32_t kVertexWords = 8;
+    bool fixedVertices = surface.vertexCount > 0;
+    for (std::uint32_t v = 0; v < surface.vertexCount && fixedVertices; ++v)
+        fixedVertices = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] <= kVertexWords;
+    Buffer vertexWords;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> vertexRows;
+    if (fixedVertices) {
+        vertexWords = uploader.uploadFilled<std::uint32_t>(
+            std::size_t(surface.vertexCount) * kVertexWords,
+            [&](std::uint32_t* words) {
+                for (std::uint32_t v = 0; v < surface.vertexCount; ++v, words += kVertexWords) {
+                    const std::uint32_t begin = surface.vertexOffsets[v], end = surface.vertexOffsets[v + 1];
+                    std::copy(surface.vertexFaces.begin() + begin, surface.vertexFaces.begin() + end, words);
+                    std::fill(words + (end - begin), words + kVertexWords, std::uint32_t(faces));
+                }
+            },
+            tables);
+        vertexRows = split(
+            surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * kVertexWords * (b - a)); },
+            "surface's vertex faces");
+    }
+    // Otherwise the CSR table of each vertex's faces.
+    const std::vector<CsrChunk> vertexChunks =
+        fixedVertices ? std::vector<CsrChunk>{} : splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
+    const Buffer vertexOffsets = fixedVertices ? Buffer{} : uploader.upload(vertexRelative, tables);
+    const Buffer vertexFaces = fixedVertices ? Buffer{} : uploader.upload(surface.vertexFaces, tables);
 
     Stage faceStage;
     faceStage.kernel = Kernel::FaceNormals;
@@ -423,6 +497,11 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& 
         d.tables[2] = d.tables[1];
         d.push.rowBase = std::uint32_t(c.rowBegin);
         d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        if (allQuads) {  // corners of row r at 4 r from tableBase, fetched as one uvec4
+            d.rowN = 4;
+            d.texelFormats[1] = VK_FORMAT_R32G32B32A32_UINT;
+            d.push.tableBase = std::uint32_t(c.entryBegin - d.tables[1].firstElement);
+        }
         d.push.sourceWindowSize = positions.windowSize;
         d.push.destinationWindowSize = faceNormals.windowSize;
         faceStage.dispatches.push_back(d);
@@ -431,6 +510,22 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& 
     vertexStage.kernel = Kernel::VertexNormals;
     vertexStage.specialization = {3, faceNormals.stride, normals.stride, faceNormals.windows > 1, normals.windows > 1};
     vertexStage.written = &normals;
+    for (const auto& [a, b] : vertexRows) {
+        Dispatch d = dispatch(b - a);
+        d.source = &faceNormals;
+        d.destination = &normals;
+        d.tables[0] = window(vertexWords, 4, kVertexWords * a, kVertexWords * b);
+        d.tables[1] = d.tables[2] = d.tables[0];
+        d.texelFormats[0] = d.texelFormats[1] = d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+        d.rowN = kVertexWords;
+        d.push.groupBase = std::uint32_t(faces);  // the zero element
+        d.push.groupCount = kVertexWords / 4;     // uvec4s per vertex
+        d.push.rowBase = std::uint32_t(a);
+        d.push.tableBase = std::uint32_t(kVertexWords * a - d.tables[1].firstElement);
+        d.push.sourceWindowSize = faceNormals.windowSize;
+        d.push.destinationWindowSize = normals.windowSize;
+        vertexStage.dispatches.push_back(d);
+    }
     for (const CsrChunk& c : vertexChunks) {
         Dispatch d = dispatch(c.rowEnd - c.rowBegin);
         d.source = &faceNormals;
@@ -453,12 +548,14 @@ void VulkanEvaluator::Impl::writeDescriptorSets() {
     for (const auto* stages : {&stencilStages, &normalStages})
         for (const Stage& s : *stages) sets += std::uint32_t(s.dispatches.size());
     if (sets == 0) return;
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * PSUB_BINDING_COUNT};
+    const VkDescriptorPoolSize sizes[2] = {
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, sets * PSUB_BINDING_STORAGE_COUNT},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, sets * (PSUB_BINDING_COUNT - PSUB_BINDING_STORAGE_COUNT)}};
     VkDescriptorPoolCreateInfo poolInfo{};
     poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
     poolInfo.maxSets = sets;
-    poolInfo.poolSizeCount = 1;
-    poolInfo.pPoolSizes = &size;
+    poolInfo.poolSizeCount = 2;
+    poolInfo.pPoolSizes = sizes;
     VK_CHECK(vkCreateDescriptorPool(context.device, &poolInfo, nullptr, &descriptorPool));
     const VkDescriptorSetLayout layout = context.pipelines->setLayout();
     // A vertex buffer's window w (window 0 again beyond its last: every binding must be valid).
@@ -472,6 +569,21 @@ void VulkanEvaluator::Impl::writeDescriptorSets() {
         info.range = count * v.stride * 4;
         return info;
     };
+    // One view per distinct range and format (the dispatches of a level share their input's).
+    std::map<std::tuple<VkBuffer, VkDeviceSize, VkDeviceSize, VkFormat>, VkBufferView> made;
+    auto view = [&](const VkDescriptorBufferInfo& info, VkFormat format) {
+        VkBufferView& found = made[std::tuple(info.buffer, info.offset, info.range, format)];
+        if (found) return found;
+        VkBufferViewCreateInfo viewInfo{};
+        viewInfo.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO;
+        viewInfo.buffer = info.buffer;
+        viewInfo.format = format;
+        viewInfo.offset = info.offset;
+        viewInfo.range = info.range;
+        VK_CHECK(vkCreateBufferView(context.device, &viewInfo, nullptr, &found));
+        views.push_back(found);
+        return found;
+    };
     for (auto* stages : {&stencilStages, &normalStages})
         for (Stage& s : *stages)
             for (Dispatch& d : s.dispatches) {
@@ -481,13 +593,21 @@ void VulkanEvaluator::Impl::writeDescriptorSets() {
                 allocate.descriptorSetCount = 1;
                 allocate.pSetLayouts = &layout;
                 VK_CHECK(vkAllocateDescriptorSets(context.device, &allocate, &d.set));
-                VkDescriptorBufferInfo infos[PSUB_BINDING_COUNT];
+                VkDescriptorBufferInfo infos[PSUB_BINDING_STORAGE_COUNT];
                 for (std::uint32_t w = 0; w < PSUB_VERTEX_WINDOWS; ++w) {
                     infos[PSUB_BINDING_SOURCE + w] = vertexWindow(*d.source, w);
                     infos[PSUB_BINDING_DESTINATION + w] = vertexWindow(*d.destination, w);
                 }
                 for (int t = 0; t < 3; ++t)
                     infos[PSUB_BINDING_TABLE_A + t] = {d.tables[t].buffer, d.tables[t].offset, d.tables[t].range};
+                // The texel-buffer bindings: the input's windows and the three table windows.
+                VkBufferView texelViews[PSUB_BINDING_COUNT] = {};
+                const VkFormat sourceFormat =
+                    d.source->stride == 4 ? VK_FORMAT_R32G32B32A32_SFLOAT : VK_FORMAT_R32_SFLOAT;
+                for (std::uint32_t w = 0; w < PSUB_VERTEX_WINDOWS; ++w)
+                    texelViews[PSUB_BINDING_SOURCE_TEXELS + w] = view(infos[PSUB_BINDING_SOURCE + w], sourceFormat);
+                for (int t = 0; t < 3; ++t)
+                    texelViews[PSUB_BINDING_TABLE_A_TEXELS + t] = view(infos[PSUB_BINDING_TABLE_A + t], d.texelFormats[t]);
                 VkWriteDescriptorSet writes[PSUB_BINDING_COUNT];
                 for (std::uint32_t b = 0; b < PSUB_BINDING_COUNT; ++b) {
                     writes[b] = {};
@@ -495,8 +615,13 @@ void VulkanEvaluator::Impl::writeDescriptorSets() {
                     writes[b].dstSet = d.set;
                     writes[b].dstBinding = b;
                     writes[b].descriptorCount = 1;
-                    writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-                    writes[b].pBufferInfo = &infos[b];
+                    if (b < PSUB_BINDING_STORAGE_COUNT) {
+                        writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+                        writes[b].pBufferInfo = &infos[b];
+                    } else {
+                        writes[b].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+                        writes[b].pTexelBufferView = &texelViews[b];
+                    }
                 }
                 vkUpdateDescriptorSets(context.device, PSUB_BINDING_COUNT, writes, 0, nullptr);
             }
@@ -508,6 +633,7 @@ VulkanEvaluator::Impl::~Impl() {
     if (fence) vkDestroyFence(context.device, fence, nullptr);
     if (commandPool) vkDestroyCommandPool(context.device, commandPool, nullptr);
     if (descriptorPool) vkDestroyDescriptorPool(context.device, descriptorPool, nullptr);
+    for (VkBufferView v : views) vkDestroyBufferView(context.device, v, nullptr);
     for (Buffer& b : tables) destroyBuffer(context, b);
     for (std::size_t k = 0; k < levels.size(); ++k)
         if (k == 0 || levels[k].buffer.buffer != levels[0].buffer.buffer) destroyBuffer(context, levels[k].buffer);
@@ -537,9 +663,14 @@ void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector
     const VkPipelineLayout layout = context.pipelines->layout();
     for (const Stage& stage : stages) {
         if (stage.dispatches.empty()) continue;
-        vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, context.pipelines->get(stage.kernel, stage.specialization));
         for (std::size_t i = 0; i < stage.dispatches.size(); ++i) {
             const Dispatch& d = stage.dispatches[i];
+            if (i == 0 || d.rowN != stage.dispatches[i - 1].rowN || d.rowM != stage.dispatches[i - 1].rowM) {
+                Specialization specialization = stage.specialization;
+                specialization.rowN = d.rowN;
+                specialization.rowM = d.rowM;
+                vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, context.pipelines->get(stage.kernel, specialization));
+            }
             // Chunks of one stage write disjoint rows but bind the same windows: order them too.
             if (i > 0)
                 bufferBarrier(command, stage.written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
@@ -576,7 +707,7 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
             if (region.size) vkCmdCopyBuffer(command, controlUpload.buffer, levels.front().buffer.buffer, 1, &region);
         }
         if (kind & kUploadRefined) {
-            const VkBufferCopy region{0, 0, std::uint64_t(refined) * width * 4};
+            const VkBufferCopy region{0, 0, std::uint64_t(refined) * refinedBuffer().stride * 4};
             if (region.size) vkCmdCopyBuffer(command, refinedHost.buffer, refinedBuffer().buffer.buffer, 1, &region);
         }
         memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -585,15 +716,22 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
     }
     if (kind & kStencils) runStages(command, stencilStages);
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryStencils);
-    if (kind & kNormals) runStages(command, normalStages);
+    if (kind & kNormals) {
+        // The zero element after the face normals (see buildNormals).
+        vkCmdFillBuffer(command, faceNormals.buffer.buffer, (faceNormals.elements - 1) * faceNormals.stride * 4,
+                        faceNormals.stride * 4, 0);
+        memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        runStages(command, normalStages);
+    }
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryNormals);
     if (staging && (kind & (kReadRefined | kReadNormals))) {
         if (kind & kReadRefined) {
-            const VkBufferCopy region{0, 0, std::uint64_t(refined) * width * 4};
+            const VkBufferCopy region{0, 0, std::uint64_t(refined) * refinedBuffer().stride * 4};
             if (region.size) vkCmdCopyBuffer(command, refinedBuffer().buffer.buffer, refinedHost.buffer, 1, &region);
         }
         if (kind & kReadNormals) {
-            const VkBufferCopy region{0, 0, std::uint64_t(refined) * 3 * 4};
+            const VkBufferCopy region{0, 0, std::uint64_t(refined) * normals.stride * 4};
             if (region.size) vkCmdCopyBuffer(command, normals.buffer.buffer, normalsHost.buffer, 1, &region);
         }
         memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
@@ -647,12 +785,16 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     const VkPhysicalDeviceLimits& limits = c.properties.limits;
     e.limit = limits.maxStorageBufferRange;
     if (options.maxBindingBytes) e.limit = std::min<std::uint64_t>(e.limit, options.maxBindingBytes);
-    e.alignment = std::max<std::uint64_t>(16, limits.minStorageBufferOffsetAlignment);
+    e.alignment = std::max<std::uint64_t>({16, limits.minStorageBufferOffsetAlignment, limits.minTexelBufferOffsetAlignment});
     e.limit = e.limit / e.alignment * e.alignment;
     if (e.limit < 4 * e.alignment) throw std::invalid_argument("VulkanEvaluator: maxBindingBytes is too small");
     e.maxRows = std::min<std::uint64_t>(std::uint64_t(limits.maxComputeWorkGroupCount[0]) *
                                             limits.maxComputeWorkGroupCount[1] * PSUB_WORKGROUP_SIZE,
                                         1ull << 31);
+    // Texel-buffer reads wherever every window fits a texel buffer (one texel per 4 bytes at
+    // most); PSUB_VULKAN_TEXELS=0 turns them off (the storage-buffer path, for comparison).
+    const char* texelsEnv = std::getenv("PSUB_VULKAN_TEXELS");
+    e.texels = e.limit / 4 <= limits.maxTexelBufferElements && !(texelsEnv && std::string(texelsEnv) == "0");
     e.staging = options.staging == Staging::Always || !c.unifiedMemory() || !hasHostVisibleDeviceMemory(c);
 
     VkCommandPoolCreateInfo poolInfo{};
@@ -674,17 +816,17 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     // Vertex buffers: control points, each level (per-level form) or the finest (factorized).
     const std::size_t levelCount = form == TableForm::PerLevel ? perLevel.levels.size() : 1;
     e.levels.resize(levelCount + 1);
-    // Buffers that only kernels read are padded from 3 to 4 floats per element (one vec4 load
-    // each); the refined positions, which are read back and drawn, stay packed.
+    // Every vertex buffer is padded from 3 to 4 floats per element (one vec4 load or store
+    // each), the refined positions too: read-backs and uploads convert from and to packed xyz.
     const std::uint32_t padded = width == 3 ? 4 : width;
-    e.makeVertexBuffer(e.levels[0], e.controls, levelCount > 0 ? padded : width, true);
+    e.makeVertexBuffer(e.levels[0], e.controls, padded, true);
     for (std::size_t k = 1; k <= levelCount; ++k)  // none for per-level with no levels: refined == control
             e.makeVertexBuffer(e.levels[k], form == TableForm::Factorized ? e.refined : perLevel.levels[k - 1].destinationCount,
-                               k == levelCount ? width : padded, k == levelCount);
+                               padded, k == levelCount);
     if (e.staging) {
         e.controlUpload = createBuffer(c, std::uint64_t(e.controls) * e.levels[0].stride * 4, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                        Memory::Upload, true);
-        e.refinedHost = createBuffer(c, std::uint64_t(e.refined) * width * 4,
+        e.refinedHost = createBuffer(c, std::uint64_t(e.refined) * e.refinedBuffer().stride * 4,
                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                      Memory::Readback, true);
     }
@@ -695,10 +837,12 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     if (e.hasSurface) {
         e.buildNormals(surface, uploader);
         if (e.staging)
-            e.normalsHost = createBuffer(c, std::uint64_t(e.refined) * 3 * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            e.normalsHost = createBuffer(c, std::uint64_t(e.refined) * e.normals.stride * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                          Memory::Readback, true);
     }
     uploader.finish(e.commandPool, e.fence);
+    for (auto* stages : {&e.stencilStages, &e.normalStages})
+        for (Stage& s : *stages) s.specialization.texels = e.texels;
     e.writeDescriptorSets();
 }
 
@@ -748,30 +892,25 @@ void VulkanEvaluator::Impl::frame(std::span<const float> control, unsigned kind,
     Impl& e = *this;
     const std::size_t controlFloats = std::size_t(e.controls) * e.width, refinedFloats = std::size_t(e.refined) * e.width;
     assert(control.size() >= controlFloats);
+    (void)controlFloats;
     assert(refinedOut.empty() || refinedOut.size() >= refinedFloats);
     assert(normalsOut.empty() || (e.hasSurface && normalsOut.size() >= 3 * std::size_t(e.refined)));
     using Clock = std::chrono::steady_clock;
     const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
     const Clock::time_point start = Clock::now();
     float* upload = static_cast<float*>(e.staging ? e.controlUpload.mapped : e.levels.front().buffer.mapped);
-    const std::uint32_t stride = e.levels.front().stride;
-    if (stride == e.width) {
-        if (controlFloats) std::memcpy(upload, control.data(), controlFloats * sizeof(float));
-    } else {  // padded to `stride` floats per element
-        for (std::size_t v = 0; v < e.controls; ++v) {
-            std::memcpy(upload + v * stride, control.data() + v * e.width, e.width * sizeof(float));
-            for (std::uint32_t i = e.width; i < stride; ++i) upload[v * stride + i] = 0.0f;
-        }
-    }
+    copyElements(upload, e.levels.front().stride, control.data(), e.width, e.controls, e.width);
     const Clock::time_point uploaded = Clock::now();
     e.submit(kind);
     const Clock::time_point done = Clock::now();
     if (!refinedOut.empty() && refinedFloats)
-        std::memcpy(refinedOut.data(), e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped,
-                    refinedFloats * sizeof(float));
+        copyElements(refinedOut.data(), e.width,
+                     static_cast<const float*>(e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped),
+                     e.refinedBuffer().stride, e.refined, e.width);
     if (!normalsOut.empty() && e.refined)
-        std::memcpy(normalsOut.data(), e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped,
-                    std::size_t(e.refined) * 3 * sizeof(float));
+        copyElements(normalsOut.data(), 3,
+                     static_cast<const float*>(e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped),
+                     e.normals.stride, e.refined, 3);
     e.hostTimes = {ms(start, uploaded), ms(uploaded, done), ms(done, Clock::now())};
 }
 
@@ -781,12 +920,13 @@ void VulkanEvaluator::normals(std::span<const float> refined, std::span<float> n
     assert(refined.size() >= refinedFloats && normals.size() >= 3 * std::size_t(e.refined));
     if (!e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
     if (refinedFloats)
-        std::memcpy(e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped, refined.data(),
-                    refinedFloats * sizeof(float));
+        copyElements(static_cast<float*>(e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped),
+                     e.refinedBuffer().stride, refined.data(), e.width, e.refined, e.width);
     e.submit(kUploadRefined | kNormals | kReadNormals);
     if (e.refined)
-        std::memcpy(normals.data(), e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped,
-                    std::size_t(e.refined) * 3 * sizeof(float));
+        copyElements(normals.data(), 3,
+                     static_cast<const float*>(e.staging ? e.normalsHost.mapped : e.normals.buffer.mapped),
+                     e.normals.stride, e.refined, 3);
 }
 
 }  // namespace psub
