@@ -324,7 +324,7 @@ int prepare(Playback& p) {
     if (p.rendering()) {
         std::filesystem::create_directories(o.renderDir);
         RenderOptions ro;
-        ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe);
+        ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
         p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro,
                                                 Polygons{cage.vertexCount, cage.offsets, cage.verts});
@@ -446,6 +446,7 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     pl->add_option("--render", o.renderDir, "also draw every frame offscreen (Vulkan) into DIR/frame_NNNN.png");
     addSize(pl, "--size", o.width, o.height, "picture size for --render", 1, "1280x720");
     addChoice(pl, "--wireframe", o.wireframe, kPlayWireframe, "with --render: none, refined or control", "none");
+    addSamples(pl, o.samples);
     pl->add_flag("--verify", o.verify,
                  "check every frame against refining its control points from scratch with the rule oracle "
                  "(slow; outside the timings)");

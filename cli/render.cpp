@@ -100,7 +100,7 @@ double median(std::vector<double> values) {
 
 int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh, const Drawable& d) {
     RenderOptions ro;
-    ro.width = o.width, ro.height = o.height, ro.wireframe = o.wireframe;
+    ro.width = o.width, ro.height = o.height, ro.wireframe = o.wireframe, ro.samples = o.samples;
     const Polygons control{mesh.faces.vertexCount, mesh.faces.offsets, mesh.faces.verts};
     Renderer renderer(context, polygonsOf(d.surface), ro, control);
     const std::vector<float> controlPositions(mesh.positions.begin(), mesh.positions.end());
@@ -139,6 +139,7 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addChoice(re, "--wireframe", o.wireframe, kWireframe,
               "none; refined: the refined faces' edges; control: the input faces' edges (the cage)", "none");
     addSize(re, "--size", o.width, o.height, "image size in pixels", 1, "1280x720");
+    addSamples(re, o.samples);
     addChoice(re, "--backend", o.backend, kCpuOrVulkan,
               "where positions and normals are evaluated: cpu or vulkan (drawing is always Vulkan)", "cpu");
     re->add_option("--frames", o.frames, "draw this many times and report the median render and readback times")

@@ -24,6 +24,7 @@ struct RenderCommandOptions {
     std::uint32_t width = 1280, height = 720;
     Backend backend = Backend::Cpu;  // where the surface is evaluated: Cpu or Vulkan
     int frames = 1;                  // draws timed (the last one is written)
+    std::uint32_t samples = 4;       // MSAA samples per pixel
 };
 
 // A refined surface with positions and normals, ready to draw.

@@ -134,7 +134,7 @@ INSTANTIATE_TEST_SUITE_P(Backends, Play, ::testing::Values(false, true),
 TEST(PlayRender, WritesOnePictureAFrameAndTimesTheDraw) {
     const std::string dir = testing::TempDir() + "/psub-play-frames-" + std::to_string(::getpid());
     fs::remove_all(dir);
-    const Outcome r = psub("play '" + test::dataPath("cube.obj") + "' --levels 3 --frames 3 --json --size 64x48 --render '" +
+    const Outcome r = psub("play '" + test::dataPath("cube.obj") + "' --levels 3 --frames 3 --json --size 64x48 --msaa 1 --render '" +
                        dir + "'");
     if (r.status != 0 && !vulkanProblem().empty() && noVulkanAllowed())
         GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << r.err;
@@ -156,6 +156,7 @@ TEST(PlayErrors, BadInputAndUsage) {
     EXPECT_EQ(psub("play " + cube + " --frames 0").status, 2);
     EXPECT_EQ(psub("play " + cube + " --size 12").status, 2);
     EXPECT_EQ(psub("play " + cube + " --backend gpu").status, 2);
+    EXPECT_EQ(psub("play " + cube + " --msaa 3").status, 2);
     EXPECT_EQ(psub("play " + cube + " --levels 40").status, 2);
     const Outcome big = psub("play " + cube + " --levels 30 --frames 1");
     EXPECT_EQ(big.status, 1);
