@@ -222,7 +222,6 @@ struct Renderer::Impl {
     void createDescriptors();
     VkPipeline createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment, bool mesh);
     void recordCommands();
-    void submitAndWait(VkCommandBuffer command);
     void writeUniforms(const Camera& camera);
 };
 
@@ -532,18 +531,6 @@ void Renderer::Impl::recordCommands() {
     VK_CHECK(vkEndCommandBuffer(readbackCommands));
 }
 
-void Renderer::Impl::submitAndWait(VkCommandBuffer command) {
-    VkSubmitInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    info.commandBufferCount = 1;
-    info.pCommandBuffers = &command;
-    {
-        std::lock_guard guard(context.lock);
-        VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
-    }
-    VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));
-    VK_CHECK(vkResetFences(context.device, 1, &fence));
-}
 
 void Renderer::Impl::writeUniforms(const Camera& camera) {
     FrameUniforms u{};
@@ -609,9 +596,9 @@ void Renderer::draw(std::span<const float> positions, std::span<const float> nor
     std::memcpy(r.normals.mapped, normals.data(), std::min(floats, normals.size()) * 4);
     r.writeUniforms(camera);
     const auto uploaded = Clock::now();
-    r.submitAndWait(r.renderCommands);
+    vulkan::submitAndWait(r.context, r.renderCommands, r.fence);
     const auto rendered = Clock::now();
-    r.submitAndWait(r.readbackCommands);
+    vulkan::submitAndWait(r.context, r.readbackCommands, r.fence);
     const std::size_t bytes = 4 * std::size_t(r.options.width) * r.options.height;
     if (out.width != r.options.width || out.height != r.options.height || out.rgba.size() != bytes) {
         out.width = r.options.width, out.height = r.options.height;

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 #include "gltf_models.h"
+#include "test_support.h"
 #include <tiny_gltf.h>
 
 #include <atomic>
@@ -45,21 +46,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace psub::test;
+using test::inputErrorOf;
 constexpr double kPi = std::numbers::pi;
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
-
-// The message of the InputError that `action` throws; a test failure when it throws none.
-template <class Action>
-std::string inputErrorOf(Action&& action) {
-    try {
-        action();
-    } catch (const InputError& error) {
-        return error.what();
-    }
-    ADD_FAILURE() << "expected an InputError";
-    return "(no error)";
-}
 
 // ---------------------------------------------------------------------------------------
 // Procedural

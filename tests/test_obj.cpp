@@ -1,6 +1,7 @@
 // OBJ reading (every face-entry form, ignored statements, line-accurate errors, truncated
 // input) and writing (formatObj round trip, atomic file replacement).
 #include "psub/topology.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -21,6 +22,7 @@ namespace psub {
 namespace {
 
 namespace fs = std::filesystem;
+using test::inputErrorOf;
 
 bool contains(const std::string& text, const std::string& part) {
     return text.find(part) != std::string::npos;
@@ -28,18 +30,6 @@ bool contains(const std::string& text, const std::string& part) {
 
 Mesh parse(std::string_view text, std::vector<std::string>* warnings = nullptr) {
     return parseObj(text, "test.obj", warnings);
-}
-
-// The message of the InputError that `action` throws; a test failure when it throws none.
-template <class Action>
-std::string inputErrorOf(Action&& action) {
-    try {
-        action();
-    } catch (const InputError& error) {
-        return error.what();
-    }
-    ADD_FAILURE() << "expected an InputError";
-    return "(no error)";
 }
 
 std::string parseError(std::string_view text) {

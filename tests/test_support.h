@@ -3,6 +3,8 @@
 
 #include "psub/topology.h"
 
+#include <gtest/gtest.h>
+
 #include <initializer_list>
 #include <string>
 #include <vector>
@@ -50,6 +52,18 @@ inline Loaded load(const std::string& path) {
     Loaded loaded{readObj(path), {}};
     loaded.checked = checkMesh(loaded.mesh);
     return loaded;
+}
+
+// The message of the InputError that `action` throws; a test failure when it throws none.
+template <class Action>
+std::string inputErrorOf(Action&& action) {
+    try {
+        action();
+    } catch (const InputError& error) {
+        return error.what();
+    }
+    ADD_FAILURE() << "expected an InputError";
+    return "(no error)";
 }
 
 // A mesh from literal positions and faces (0-based corners).

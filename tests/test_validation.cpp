@@ -2,6 +2,7 @@
 // non-manifold vertices and unused vertices are accepted with warnings; the psub program
 // exits 1 with one error line and leaves no output behind.
 #include "psub/topology.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -22,6 +23,7 @@ namespace psub {
 namespace {
 
 namespace fs = std::filesystem;
+using test::inputErrorOf;
 
 bool contains(const std::string& text, const std::string& part) {
     return text.find(part) != std::string::npos;
@@ -38,17 +40,6 @@ std::string loadError(const std::string& path) {
     }
     ADD_FAILURE() << path << " was accepted";
     return "(accepted)";
-}
-
-template <class Action>
-std::string inputErrorOf(Action&& action) {
-    try {
-        action();
-    } catch (const InputError& error) {
-        return error.what();
-    }
-    ADD_FAILURE() << "expected an InputError";
-    return "(no error)";
 }
 
 struct Loaded {

@@ -1,6 +1,8 @@
 // Buffers (one allocation each: an evaluator holds a dozen) and barrier helpers.
 #include "resources.h"
 
+#include <mutex>
+
 #include "device.h"
 
 #include <string>
@@ -112,6 +114,19 @@ void memoryBarrier(VkCommandBuffer command, VkPipelineStageFlags sourceStage, Vk
     barrier.srcAccessMask = sourceAccess;
     barrier.dstAccessMask = destinationAccess;
     vkCmdPipelineBarrier(command, sourceStage, destinationStage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+void submitAndWait(VulkanContext::Impl& context, VkCommandBuffer command, VkFence fence) {
+    VkSubmitInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    info.commandBufferCount = 1;
+    info.pCommandBuffers = &command;
+    {
+        std::lock_guard guard(context.lock);
+        VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
+    }
+    VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));
+    VK_CHECK(vkResetFences(context.device, 1, &fence));
 }
 
 }  // namespace psub::vulkan

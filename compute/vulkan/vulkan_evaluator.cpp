@@ -165,16 +165,7 @@ public:
                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
         VK_CHECK(vkEndCommandBuffer(command));
-        VkSubmitInfo submit{};
-        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-        submit.commandBufferCount = 1;
-        submit.pCommandBuffers = &command;
-        {
-            std::lock_guard guard(context_.lock);
-            VK_CHECK(vkQueueSubmit(context_.queue, 1, &submit, fence));
-        }
-        VK_CHECK(vkWaitForFences(context_.device, 1, &fence, VK_TRUE, UINT64_MAX));
-        VK_CHECK(vkResetFences(context_.device, 1, &fence));
+        submitAndWait(context_, command, fence);
         vkFreeCommandBuffers(context_.device, pool, 1, &command);
         copies_.clear();
     }
@@ -742,17 +733,7 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
 }
 
 void VulkanEvaluator::Impl::submit(unsigned kind) {
-    const VkCommandBuffer command = frame(kind);
-    VkSubmitInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    info.commandBufferCount = 1;
-    info.pCommandBuffers = &command;
-    {
-        std::lock_guard guard(context.lock);
-        VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
-    }
-    VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));
-    VK_CHECK(vkResetFences(context.device, 1, &fence));
+    submitAndWait(context, frame(kind), fence);
     times = {};
     if (queries) {
         std::uint64_t stamps[kQueryCount];
