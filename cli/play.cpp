@@ -89,7 +89,9 @@ Animated loadAnimated(const PlayOptions& o) {
         a.player = std::make_unique<GltfPlayer>(*a.asset);
         a.rest.resize(3 * a.player->vertexCount());
         a.player->staticPose(a.rest);
-        const std::string wanted = o.animation.empty() && !a.asset->clips.empty() ? a.asset->clips[0].name : o.animation;
+        // Default: the file's first clip, or the wave when it has none.
+        const std::string wanted = !o.animation.empty() ? o.animation
+                                   : a.asset->clips.empty() ? std::string("wave") : a.asset->clips[0].name;
         if (auto clip = findClip(*a.asset, wanted)) {
             a.clip = *clip;
             a.period = std::max(a.asset->clips[*clip].duration, 1e-3);

@@ -116,6 +116,20 @@ TEST_P(Play, GltfClipFramesEqualRefiningEachFrameFromScratch) {
     fs::remove(path);
 }
 
+TEST_P(Play, GltfWithoutClipsPlaysTheWaveOnItsPose) {
+    const std::string path = testing::TempDir() + "/psub-play-still-" + std::to_string(::getpid()) + ".gltf";
+    tinygltf::Model model = test::makeCylinder().builder.model;
+    model.animations.clear();
+    ASSERT_TRUE(test::writeGltf(model, path));
+    const Outcome r = play("'" + path + "' --levels 2 --frames 10 --verify", GetParam());
+    expectVerified(r, 10);
+    EXPECT_TRUE(contains(r.out, "\"animation\": \"wave (procedural)\"")) << r.out;
+    const Outcome missing = play("'" + path + "' --anim Walk --frames 1", GetParam());
+    EXPECT_EQ(missing.status, 1);
+    EXPECT_TRUE(contains(missing.err, "clips: none")) << missing.err;
+    fs::remove(path);
+}
+
 TEST_P(Play, JsonHasTheStableFields) {
     const Outcome r = play("'" + test::dataPath("cube.obj") + "' --levels 4 --frames 5", GetParam());
     ASSERT_EQ(r.status, 0) << r.err;
