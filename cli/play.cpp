@@ -206,11 +206,13 @@ struct Playback {
     bool rendering() const { return !o.renderDir.empty(); }
     bool needHostResults() const { return rendering() || verifier.has_value(); }
 
-    void frame(int index, Timings& t);
+    // One frame: its stage times go to `t`; with `record` false (the warm-up) nothing is
+    // recorded, written or verified.
+    void frame(int index, Timings& t, bool record = true);
     void draw(int index, Timings& t);
 };
 
-void Playback::frame(int index, Timings& t) {
+void Playback::frame(int index, Timings& t, bool record) {
     const Clock::time_point start = Clock::now();
     animated.pose(double(index) / o.animationFps, control);
     const Clock::time_point posed = Clock::now();
@@ -245,6 +247,7 @@ void Playback::frame(int index, Timings& t) {
     }
 #endif
     const Clock::time_point end = Clock::now();
+    if (!record) return;
     for (int s = 0; s < kStageCount; ++s) t.stages[std::size_t(s)].push_back(stage[s]);
     t.frames.push_back(msBetween(start, end));
     if (rendering()) draw(index, t);
@@ -455,9 +458,10 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     pl->add_flag("--json", o.json,
                  "one JSON object: refined_faces, frames, fps, backend, stages.{deform,upload,evaluate,normals,"
                  "render,readback}.{median_ms,p95_ms,max_ms}, and more");
-    pl->footer("Everything is created before the first frame; the loop only deforms, uploads, evaluates the\n"
-               "stencil tables, computes normals and (with --render) draws and reads back. fps counts those\n"
-               "stages; writing PNG files and --verify are outside it.\n"
+    pl->footer("Everything is created before the first frame, and one untimed warm-up frame records the\n"
+               "command buffers; the loop only deforms, uploads, evaluates the stencil tables, computes\n"
+               "normals and (with --render) draws and reads back. fps counts those stages; writing PNG files\n"
+               "and --verify are outside it.\n"
                "Examples:\n  psub play data/spot_control_mesh.obj --levels 5 --frames 300 --anim twist\n"
                "  psub play data/cow.obj --levels 4 --backend vulkan --json\n"
                "  psub play data/cube.obj --levels 6 --frames 60 --render frames/ --size 640x360\n"
@@ -470,6 +474,10 @@ int runPlay(const PlayOptions& o) {
     Playback p(o, animated);
     refineAnimated(p);
     if (const int status = prepare(p)) return status;
+    // One untimed warm-up frame: command buffers of this kind of frame are recorded and
+    // lavapipe compiles its shaders now, not inside the loop.
+    Timings warmUp(0);
+    p.frame(0, warmUp, false);
     Timings t(o.frames);
     const bool progress = ::isatty(2) != 0 && !o.json;
     Clock::time_point lastProgress = Clock::now();
