@@ -11,15 +11,17 @@ scripts/install-packages.sh clang libclang-rt-14-dev cmake ninja-build libosd-de
 
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DPSUB_FUZZ=ON -DPSUB_BUILD_TESTS=OFF -DPSUB_BUILD_CLI=OFF -DPSUB_BUILD_VULKAN=OFF >/dev/null
-cmake --build build-fuzz -j "$(nproc)" --target fuzz_obj fuzz_refine
+cmake --build build-fuzz -j "$(nproc)" --target fuzz_obj fuzz_refine fuzz_gltf
 
 mkdir -p build-fuzz/artifacts
-for target in fuzz_obj fuzz_refine; do
+for target in fuzz_obj fuzz_refine fuzz_gltf; do
   corpus=build-fuzz/corpus/$target
   mkdir -p "$corpus"
+  seeds=(data tests/data/bad tests/data/osd-shapes tests/fuzz/regressions)
+  [ "$target" = fuzz_gltf ] && seeds=(tests/fuzz/gltf-seeds)
   echo "fuzz: $target for ${seconds}s"
   build-fuzz/tests/fuzz/$target -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
-    -max_len=8192 -print_final_stats=1 -artifact_prefix=build-fuzz/artifacts/$target- \
-    "$corpus" data tests/data/bad tests/data/osd-shapes tests/fuzz/regressions 2>&1 | tail -n 12
+    -max_len=16384 -print_final_stats=1 -artifact_prefix=build-fuzz/artifacts/$target- \
+    "$corpus" "${seeds[@]}" 2>&1 | tail -n 12
 done
 echo "fuzz: no crash, leak or timeout"

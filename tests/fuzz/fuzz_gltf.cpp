@@ -1,0 +1,37 @@
+// libFuzzer target: whatever bytes arrive are loaded as a glTF file (through a temporary file,
+// readGltf's interface); a file that loads is checked as a mesh and every clip is posed at a
+// few times. Only InputError may come out; the poses must stay finite where the file's
+// numbers are (readGltf rejects non-finite ones).
+#include "psub/animation.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    static const std::string path = "/tmp/psub-fuzz-gltf-" + std::to_string(::getpid()) + ".gltf";  // .glb or .gltf: told apart by content
+    if (std::FILE* file = std::fopen(path.c_str(), "wb")) {
+        if (size) std::fwrite(data, 1, size, file);
+        std::fclose(file);
+    } else {
+        return 0;
+    }
+    try {
+        const psub::GltfAsset asset = psub::readGltf(path);
+        if (asset.mesh.faces.verts.size() > 100000) return 0;  // keep each input fast
+        psub::checkMesh(asset.mesh);
+        psub::GltfPlayer player(asset);
+        std::vector<float> pose(3 * player.vertexCount());
+        player.staticPose(pose);
+        for (std::size_t clip = 0; clip < player.clipCount(); ++clip)
+            for (double t : {0.0, 0.37, 1.0, 12.5}) player.pose(clip, t, pose);
+    } catch (const psub::InputError&) {
+    }
+    return 0;
+}
