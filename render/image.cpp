@@ -1,21 +1,19 @@
-// Images on the CPU: pixels, PNG files (libpng's simplified API; written atomically),
+// Images on the CPU: pixels, PNG files (libpng's simplified API; written atomically by
+// topology's writeFileAtomic),
 // captions drawn from stb_easy_font's quads, and panels side by side with captions.
-#include "psub/render.h"
+#include "psub/image.h"
+#include "psub/topology.h"
 
 #include <png.h>
 #include <stb_easy_font.h>
 
 #include <algorithm>
 #include <cassert>
-#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <string>
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 namespace psub {
 namespace {
@@ -26,39 +24,6 @@ std::size_t offsetOf(const Image& image, std::uint32_t x, std::uint32_t y) {
 
 [[noreturn]] void failWrite(const std::string& path, const std::string& why) {
     throw std::runtime_error(path + ": cannot write: " + why);
-}
-
-// `bytes` to `path` through a temporary file in the same directory and a rename: on any
-// failure the temporary is removed and nothing is left at `path`.
-void writeFileAtomically(const std::string& path, const std::vector<unsigned char>& bytes) {
-    const std::size_t slash = path.rfind('/');
-    std::string temp = (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + ".psub-XXXXXX";
-    const int fd = ::mkstemp(temp.data());
-    if (fd < 0) failWrite(path, std::strerror(errno));
-    auto fail = [&](int error) {
-        ::close(fd);
-        ::unlink(temp.c_str());
-        failWrite(path, std::strerror(error));
-    };
-    for (std::size_t done = 0; done < bytes.size();) {
-        const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) fail(n < 0 ? errno : EIO);
-        done += std::size_t(n);
-    }
-    const mode_t mask = ::umask(0);
-    ::umask(mask);
-    if (::fchmod(fd, 0666 & ~mask) != 0 || ::fsync(fd) != 0) fail(errno);
-    if (::close(fd) != 0) {
-        const int error = errno;
-        ::unlink(temp.c_str());
-        failWrite(path, std::strerror(error));
-    }
-    if (std::rename(temp.c_str(), path.c_str()) != 0) {
-        const int error = errno;
-        ::unlink(temp.c_str());
-        failWrite(path, std::strerror(error));
-    }
 }
 
 std::vector<unsigned char> encodePng(const std::string& path, const Image& image) {
@@ -101,7 +66,17 @@ Image filledImage(std::uint32_t width, std::uint32_t height, Rgba colour) {
     return image;
 }
 
-void writePng(const std::string& path, const Image& image) { writeFileAtomically(path, encodePng(path, image)); }
+void writePng(const std::string& path, const Image& image) {
+    const std::vector<unsigned char> bytes = encodePng(path, image);
+    writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+void fillRect(Image& image, int x0, int y0, int x1, int y1, Rgba colour) {
+    const int left = std::max(0, std::min(x0, x1)), right = std::min(int(image.width) - 1, std::max(x0, x1));
+    const int top = std::max(0, std::min(y0, y1)), bottom = std::min(int(image.height) - 1, std::max(y0, y1));
+    for (int y = top; y <= bottom; ++y)
+        for (int x = left; x <= right; ++x) image.setPixel(std::uint32_t(x), std::uint32_t(y), colour);
+}
 
 Image readPng(const std::string& path) {
     png_image png{};

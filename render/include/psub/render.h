@@ -1,9 +1,10 @@
 // psub/render.h: offscreen pictures of refined surfaces with Vulkan (no window, no display;
-// Mesa's lavapipe is enough): a renderer built once per surface, a camera that frames a box,
-// and the image side: PNG output, captions, panels side by side. Link psub::render. Reads
-// face lists only, never topology. No Vulkan types here.
+// Mesa's lavapipe is enough): a renderer built once per surface and a camera that frames a
+// box; the images it draws into are psub/image.h's. Link psub::render. Reads face lists only,
+// never topology. No Vulkan types here.
 #pragma once
 
+#include "psub/image.h"
 #include "psub/tables.h"
 #include "psub/vulkan_evaluator.h"
 
@@ -15,43 +16,6 @@
 #include <vector>
 
 namespace psub {
-
-struct Rgba {
-    std::uint8_t r = 0, g = 0, b = 0, a = 255;
-    bool operator==(const Rgba&) const = default;
-};
-
-// Pixels row by row from the top, 4 bytes (r, g, b, a) each.
-struct Image {
-    std::uint32_t width = 0, height = 0;
-    std::vector<std::uint8_t> rgba;
-
-    Rgba pixel(std::uint32_t x, std::uint32_t y) const;
-    void setPixel(std::uint32_t x, std::uint32_t y, Rgba colour);
-};
-
-// An image of `width` x `height` filled with `colour`.
-Image filledImage(std::uint32_t width, std::uint32_t height, Rgba colour);
-
-// Writes `image` as an 8-bit RGBA PNG, atomically: a temporary file in the same directory,
-// renamed over `path` when complete; on failure no file is left and std::runtime_error names
-// `path` and the reason.
-void writePng(const std::string& path, const Image& image);
-
-// Reads an 8-bit RGB or RGBA PNG (for tests and tools); std::runtime_error naming `path`.
-Image readPng(const std::string& path);
-
-// Draws `text` (ASCII, '\n' for new lines) with stb_easy_font: top-left corner at (x, y),
-// `scale` pixels per font unit (a capital is 7 units tall). Clipped to the image.
-void drawText(Image& image, int x, int y, const std::string& text, int scale, Rgba colour);
-// Width and height in pixels of `text` drawn at `scale`.
-std::array<int, 2> textSize(const std::string& text, int scale);
-
-// A figure: `panels` (all the same size; std::invalid_argument otherwise) left to right, each
-// with its caption centred in a band below it. captions.size() must equal panels.size().
-Image panelsWithCaptions(std::span<const Image> panels, std::span<const std::string> captions,
-                         int captionScale = 2, Rgba background = {255, 255, 255, 255},
-                         Rgba textColour = {20, 20, 20, 255});
 
 // An axis-aligned box; empty until extended.
 struct Box {
