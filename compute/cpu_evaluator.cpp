@@ -2,15 +2,25 @@
 // threads, a barrier between levels; normals gathered per vertex.
 #include "psub/evaluator.h"
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
 #include <omp.h>
 
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 namespace psub {
 namespace {
+
+#if defined(__SSE2__)
+constexpr bool kSimd = true;  // float normals through SSE (every x86-64)
+#else
+constexpr bool kSimd = false;
+#endif
 
 // This thread's share [begin, end) of `rows` rows.
 std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
@@ -67,6 +77,9 @@ CpuEvaluator<T>::CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTab
     }
     if (form == TableForm::PerLevel) levels_.resize(total);
     faceNormals_.resize(4 * (surface.faceOffsets.size() - 1));  // padded to 4: one aligned load each
+    allQuads_ = surface.faceVerts.size() == 4 * (surface.faceOffsets.size() - 1);
+    for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
+        allQuads_ = surface.faceOffsets[f] == 4 * f;
 }
 
 template <class T>
@@ -103,64 +116,183 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
 template <class T>
 void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) {
     assert(width_ >= 3 && normals.size() >= 3 * std::size_t(surface_.vertexCount));
-    const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
-    const T* p = refined.data();
-    const std::size_t stride = width_;
     const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
 #pragma omp parallel num_threads(team) if (team > 1)
     {
-        // Newell's normal of each face: twice its area along its normal. Quads (nearly every
-        // face after a few steps) unrolled; the same operations in the same order either way.
-        T* faceNormals = faceNormals_.data();
-        const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
-        const std::uint32_t* faceVerts = surface_.faceVerts.data();
-#pragma omp for schedule(static)
-        for (std::uint32_t f = 0; f < faces; ++f) {
-            T n0 = 0, n1 = 0, n2 = 0;
-            const std::uint32_t begin = faceOffsets[f], end = faceOffsets[f + 1];
-            auto edge = [&](const T* a, const T* b) {
-                n0 += (a[1] - b[1]) * (a[2] + b[2]);
-                n1 += (a[2] - b[2]) * (a[0] + b[0]);
-                n2 += (a[0] - b[0]) * (a[1] + b[1]);
-            };
-            if (end - begin == 4) {
-                const T* p0 = p + faceVerts[begin] * stride;
-                const T* p1 = p + faceVerts[begin + 1] * stride;
-                const T* p2 = p + faceVerts[begin + 2] * stride;
-                const T* p3 = p + faceVerts[begin + 3] * stride;
-                edge(p0, p1);
-                edge(p1, p2);
-                edge(p2, p3);
-                edge(p3, p0);
-            } else {
-                for (std::uint32_t c = begin; c < end; ++c)
-                    edge(p + faceVerts[c] * stride, p + faceVerts[c + 1 == end ? begin : c + 1] * stride);
-            }
-            faceNormals[4 * std::size_t(f)] = n0;
-            faceNormals[4 * std::size_t(f) + 1] = n1;
-            faceNormals[4 * std::size_t(f) + 2] = n2;
-            faceNormals[4 * std::size_t(f) + 3] = 0;
-        }
-        // Each vertex gathers its faces' normals in table order, then normalises.
-        const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
-        const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
-        T* out = normals.data();
-#pragma omp for schedule(static)
-        for (std::uint32_t v = 0; v < surface_.vertexCount; ++v) {
-            T n[4] = {0, 0, 0, 0};
-            for (std::uint32_t i = vertexOffsets[v], end = vertexOffsets[v + 1]; i < end; ++i) {
-                const T* fn = faceNormals + 4 * std::size_t(vertexFaces[i]);
-                for (int axis = 0; axis < 4; ++axis) n[axis] += fn[axis];
-            }
-            const T n0 = n[0], n1 = n[1], n2 = n[2];
-            const T length = std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
-            const T scale = length > 0 ? 1 / length : 0;
-            out[3 * std::size_t(v)] = n0 * scale;
-            out[3 * std::size_t(v) + 1] = n1 * scale;
-            out[3 * std::size_t(v) + 2] = n2 * scale;
+        if constexpr (std::is_same_v<T, float> && kSimd) {
+            faceNormalsSimd(refined.data());
+#pragma omp barrier
+            vertexNormalsSimd(normals.data());
+        } else {
+            faceNormalsScalar(refined.data());
+#pragma omp barrier
+            vertexNormalsScalar(normals.data());
         }
     }
 }
+
+// Newell's normal of each face: twice its area along its normal. Quads (nearly every face
+// after a few steps) unrolled; the same operations in the same order either way.
+template <class T>
+void CpuEvaluator<T>::faceNormalsScalar(const T* p) {
+    const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
+    const std::size_t stride = width_;
+    T* faceNormals = faceNormals_.data();
+    const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
+    const std::uint32_t* faceVerts = surface_.faceVerts.data();
+    const auto [fBegin, fEnd] = share(faces);
+    for (std::uint32_t f = std::uint32_t(fBegin); f < std::uint32_t(fEnd); ++f) {
+        T n0 = 0, n1 = 0, n2 = 0;
+        const std::uint32_t begin = faceOffsets[f], end = faceOffsets[f + 1];
+        auto edge = [&](const T* a, const T* b) {
+            n0 += (a[1] - b[1]) * (a[2] + b[2]);
+            n1 += (a[2] - b[2]) * (a[0] + b[0]);
+            n2 += (a[0] - b[0]) * (a[1] + b[1]);
+        };
+        if (end - begin == 4) {
+            const T* p0 = p + faceVerts[begin] * stride;
+            const T* p1 = p + faceVerts[begin + 1] * stride;
+            const T* p2 = p + faceVerts[begin + 2] * stride;
+            const T* p3 = p + faceVerts[begin + 3] * stride;
+            edge(p0, p1);
+            edge(p1, p2);
+            edge(p2, p3);
+            edge(p3, p0);
+        } else {
+            for (std::uint32_t c = begin; c < end; ++c)
+                edge(p + faceVerts[c] * stride, p + faceVerts[c + 1 == end ? begin : c + 1] * stride);
+        }
+        faceNormals[4 * std::size_t(f)] = n0;
+        faceNormals[4 * std::size_t(f) + 1] = n1;
+        faceNormals[4 * std::size_t(f) + 2] = n2;
+        faceNormals[4 * std::size_t(f) + 3] = 0;
+    }
+}
+
+// Each vertex gathers its faces' normals in table order, then normalises.
+template <class T>
+void CpuEvaluator<T>::vertexNormalsScalar(T* out) const {
+    const T* faceNormals = faceNormals_.data();
+    const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
+    const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
+    const auto [vBegin, vEnd] = share(surface_.vertexCount);
+    for (std::uint32_t v = std::uint32_t(vBegin); v < std::uint32_t(vEnd); ++v) {
+        T n[4] = {0, 0, 0, 0};
+        for (std::uint32_t i = vertexOffsets[v], end = vertexOffsets[v + 1]; i < end; ++i) {
+            const T* fn = faceNormals + 4 * std::size_t(vertexFaces[i]);
+            for (int axis = 0; axis < 4; ++axis) n[axis] += fn[axis];
+        }
+        const T n0 = n[0], n1 = n[1], n2 = n[2];
+        const T length = std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+        const T scale = length > 0 ? 1 / length : 0;
+        out[3 * std::size_t(v)] = n0 * scale;
+        out[3 * std::size_t(v) + 1] = n1 * scale;
+        out[3 * std::size_t(v) + 2] = n2 * scale;
+    }
+}
+
+#if defined(__SSE2__)
+// The float passes with SSE: one vertex (x, y, z, -) or face normal per register, each lane
+// doing the scalar passes' operations in their order, so the results are bit-identical.
+// The face pass computes the three Newell sums as one product of rotated vectors.
+template <class T>
+void CpuEvaluator<T>::faceNormalsSimd(const T* p) {
+    if constexpr (std::is_same_v<T, float>) {
+        const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
+        const std::size_t stride = width_;
+        // A 16-byte load at a vertex reads one value past its position: past the buffer only
+        // for the last vertex of a packed buffer, which is loaded value by value.
+        const std::uint32_t wide = stride > 3 ? surface_.vertexCount : surface_.vertexCount - 1;
+        auto load = [&](std::uint32_t i) {
+            const float* q = p + std::size_t(i) * stride;
+            if (i < wide) [[likely]]
+                return _mm_loadu_ps(q);
+            return _mm_setr_ps(q[0], q[1], q[2], 0.0f);
+        };
+        const __m128 keepXyz = _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0));
+        float* faceNormals = faceNormals_.data();
+        const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
+        const std::uint32_t* faceVerts = surface_.faceVerts.data();
+        const auto [fBegin, fEnd] = share(faces);
+        constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
+        for (std::uint32_t f = std::uint32_t(fBegin); f < std::uint32_t(fEnd); ++f) {
+            const std::uint32_t begin = allQuads_ ? 4 * f : faceOffsets[f];
+            const std::uint32_t end = allQuads_ ? begin + 4 : faceOffsets[f + 1];
+            if (allQuads_ && f + kAhead < fEnd) {
+                const std::uint32_t* ahead = faceVerts + 4 * std::size_t(f + kAhead);
+                for (int k = 0; k < 4; ++k) __builtin_prefetch(p + std::size_t(ahead[k]) * stride);
+            }
+            // n += (a.yzx - b.yzx) * (a.zxy + b.zxy) for each edge a b, in corner order.
+            __m128 n = _mm_setzero_ps();
+            auto edge = [&](__m128 a1, __m128 a2, __m128 b1, __m128 b2) {
+                n = _mm_add_ps(n, _mm_mul_ps(_mm_sub_ps(a1, b1), _mm_add_ps(a2, b2)));
+            };
+            auto yzx = [](__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 0, 2, 1)); };
+            auto zxy = [](__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 1, 0, 2)); };
+            if (end - begin == 4) {
+                const __m128 v0 = load(faceVerts[begin]), v1 = load(faceVerts[begin + 1]);
+                const __m128 v2 = load(faceVerts[begin + 2]), v3 = load(faceVerts[begin + 3]);
+                const __m128 a0 = yzx(v0), a1 = yzx(v1), a2 = yzx(v2), a3 = yzx(v3);
+                const __m128 b0 = zxy(v0), b1 = zxy(v1), b2 = zxy(v2), b3 = zxy(v3);
+                edge(a0, b0, a1, b1);
+                edge(a1, b1, a2, b2);
+                edge(a2, b2, a3, b3);
+                edge(a3, b3, a0, b0);
+            } else {
+                for (std::uint32_t c = begin; c < end; ++c) {
+                    const __m128 a = load(faceVerts[c]), b = load(faceVerts[c + 1 == end ? begin : c + 1]);
+                    edge(yzx(a), zxy(a), yzx(b), zxy(b));
+                }
+            }
+            _mm_store_ps(faceNormals + 4 * std::size_t(f), _mm_and_ps(n, keepXyz));
+        }
+    } else {
+        (void)p;
+    }
+}
+
+template <class T>
+void CpuEvaluator<T>::vertexNormalsSimd(T* out) const {
+    if constexpr (std::is_same_v<T, float>) {
+        const float* faceNormals = faceNormals_.data();
+        const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
+        const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
+        const auto [vBegin, vEnd] = share(surface_.vertexCount);
+        if (vBegin == vEnd) return;
+        constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead
+        const std::uint32_t prefetchEnd = vertexOffsets[vEnd] > kAhead ? vertexOffsets[vEnd] - kAhead : 0;
+        for (std::uint32_t v = std::uint32_t(vBegin); v < std::uint32_t(vEnd); ++v) {
+            __m128 n = _mm_setzero_ps();
+            for (std::uint32_t i = vertexOffsets[v], end = vertexOffsets[v + 1]; i < end; ++i) {
+                if (i < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[i + kAhead]));
+                n = _mm_add_ps(n, _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[i])));
+            }
+            alignas(16) float s[4];
+            _mm_store_ps(s, n);
+            const float length = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+            const float scale = length > 0 ? 1 / length : 0;
+            const __m128 unit = _mm_mul_ps(n, _mm_set1_ps(scale));
+            float* o = out + 3 * std::size_t(v);
+            // A 16-byte store spills one value into the next vertex, which this thread
+            // writes next; its last vertex is stored exactly.
+            if (v + 1 < vEnd) [[likely]] {
+                _mm_storeu_ps(o, unit);
+            } else {
+                _mm_storel_pi(reinterpret_cast<__m64*>(o), unit);
+                _mm_store_ss(o + 2, _mm_movehl_ps(unit, unit));
+            }
+        }
+    } else {
+        (void)out;
+    }
+}
+#else
+// Without SSE2 (not x86-64) the scalar passes serve floats too.
+template <class T>
+void CpuEvaluator<T>::faceNormalsSimd(const T* p) { faceNormalsScalar(p); }
+template <class T>
+void CpuEvaluator<T>::vertexNormalsSimd(T* out) const { vertexNormalsScalar(out); }
+#endif
 
 template class CpuEvaluator<float>;
 template class CpuEvaluator<double>;

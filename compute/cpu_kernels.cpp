@@ -2,8 +2,13 @@
 // fixed-width paths for 3 and 4 values per vertex and a generic one.
 #include "psub/evaluator.h"
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <cassert>
+#include <type_traits>
 
 namespace psub {
 namespace {
@@ -48,9 +53,82 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
     }
 }
 
+#if defined(__SSE2__)
+// applyGroup for float and 3 values per vertex with SSE: a vertex per register (x, y, z, -),
+// each lane doing applyGroup's operations in its order (the weight-1 products are exact), so
+// the results are bit-identical. A 16-byte load reads one value past the vertex: past the
+// buffer only for the parent level's last vertex of a packed buffer, which is loaded value
+// by value.
+template <int N, int M>
+void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
+                    const float* source, BufferLayout sl, std::uint32_t sourceCount, float* destination,
+                    BufferLayout dl) {
+    const __m128 centre = _mm_set1_ps(float(g.centre)), edge = _mm_set1_ps(float(g.edge)),
+                 diagonal = _mm_set1_ps(float(g.diagonal));
+    const std::uint32_t n = N >= 0 ? std::uint32_t(N) : g.n, m = M >= 0 ? std::uint32_t(M) : g.m;
+    const std::uint32_t width = 1 + n + m;
+    const std::uint32_t wide = sl.offset + 3 < sl.stride ? sourceCount : sourceCount - 1;
+    const float* base = source + sl.offset;
+    const std::size_t stride = sl.stride;
+    auto load = [&](std::uint32_t i) {
+        const float* q = base + std::size_t(i) * stride;
+        if (i < wide) [[likely]]
+            return _mm_loadu_ps(q);
+        return _mm_setr_ps(q[0], q[1], q[2], 0.0f);
+    };
+    const std::uint32_t* indices = table.indices.data() + g.indexBegin;
+    const std::uint32_t* destinations = table.destinations.data() + g.rowBegin;
+    const __m128 zero = _mm_setzero_ps();
+    auto row = [&](std::uint64_t r) {
+        const std::uint32_t* ix = indices + r * width;
+        const __m128 acc = _mm_add_ps(zero, _mm_mul_ps(centre, load(ix[0])));
+        __m128 edges = zero, diagonals = zero;
+        if (N != 0)
+            for (std::uint32_t j = 1; j <= n; ++j) edges = _mm_add_ps(edges, load(ix[j]));
+        if (M != 0)
+            for (std::uint32_t j = 1 + n; j < width; ++j) diagonals = _mm_add_ps(diagonals, load(ix[j]));
+        return _mm_add_ps(_mm_add_ps(acc, _mm_mul_ps(edge, edges)), _mm_mul_ps(diagonal, diagonals));
+    };
+    auto store3 = [](float* out, __m128 v) {
+        _mm_storel_pi(reinterpret_cast<__m64*>(out), v);
+        _mm_store_ss(out + 2, _mm_movehl_ps(v, v));
+    };
+    if (r0 >= r1) return;
+    // Destinations ascend within a group; when the range's are consecutive (a level's new
+    // face points, say), they need not be read, and a row's 16-byte store may spill into the
+    // next row's vertex, written next by this thread (packed destinations only).
+    const std::uint32_t first = destinations[r0];
+    if (destinations[r1 - 1] - first == r1 - 1 - r0) {
+        float* out = destination + std::size_t(first) * dl.stride + dl.offset;
+        if (dl.stride == 3) {
+            for (std::uint64_t r = r0; r + 1 < r1; ++r, out += 3) _mm_storeu_ps(out, row(r));
+            store3(out, row(r1 - 1));
+        } else {
+            for (std::uint64_t r = r0; r < r1; ++r, out += dl.stride) store3(out, row(r));
+        }
+        return;
+    }
+    for (std::uint64_t r = r0; r < r1; ++r)
+        store3(destination + std::size_t(destinations[r]) * dl.stride + dl.offset, row(r));
+}
+#endif
+
 template <class T, int W>
 void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
-                          const T* source, BufferLayout sl, T* destination, BufferLayout dl) {
+                          const T* source, BufferLayout sl, std::uint32_t sourceCount, T* destination,
+                          BufferLayout dl) {
+#if defined(__SSE2__)
+    if constexpr (std::is_same_v<T, float> && W == 3) {
+        if (g.n == 3 && g.m == 0) return applyGroupSse3<3, 0>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+        if (g.n == 4 && g.m == 4) return applyGroupSse3<4, 4>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+        if (g.n == 0 && g.m == 0) return applyGroupSse3<0, 0>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+        if (g.n == 2 && g.m == 0) return applyGroupSse3<2, 0>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+        if (g.n == 3 && g.m == 3) return applyGroupSse3<3, 3>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+        return applyGroupSse3<-1, -1>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+    }
+#else
+    (void)sourceCount;
+#endif
     if (g.n == 3 && g.m == 0) return applyGroup<T, W, 3, 0>(table, g, r0, r1, source, sl, destination, dl);
     if (g.n == 4 && g.m == 4) return applyGroup<T, W, 4, 4>(table, g, r0, r1, source, sl, destination, dl);
     if (g.n == 0 && g.m == 0) return applyGroup<T, W, 0, 0>(table, g, r0, r1, source, sl, destination, dl);
@@ -68,7 +146,8 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
         if (begin < end)
-            applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, destination, dl);
+            applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
+                                       destination, dl);
     }
 }
 

@@ -7,7 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 
 namespace psub {
@@ -303,6 +305,102 @@ TEST(Evaluator, ClosedSurfaceNormalsPointOutward) {
         const double length = std::hypot(normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]);
         EXPECT_GT(dot, 0) << "vertex " << v;
         EXPECT_NEAR(length, 1.0, 1e-12);
+    }
+}
+
+// The definition, value by value in float: each row is (0 + c P) + e (0 + edge sum) +
+// d (0 + diagonal sum), summed in index order.
+void referenceLevel(const PerLevelTable& table, std::size_t k, const float* source, BufferLayout sl,
+                    float* destination, BufferLayout dl) {
+    const StencilLevel& level = table.levels[k];
+    for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+        const RowGroup& g = table.groups[gi];
+        for (std::uint64_t r = 0; r < g.rowCount; ++r) {
+            const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
+            float* out = destination + std::size_t(table.destinations[g.rowBegin + r]) * dl.stride + dl.offset;
+            for (int i = 0; i < 3; ++i) {
+                auto at = [&](std::uint32_t j) { return source[std::size_t(ix[j]) * sl.stride + sl.offset + i]; };
+                float centre = 0, edges = 0, diagonals = 0;
+                centre += float(g.centre) * at(0);
+                for (std::uint32_t j = 1; j <= g.n; ++j) edges += at(j);
+                for (std::uint32_t j = 1 + g.n; j < g.width; ++j) diagonals += at(j);
+                out[i] = centre + float(g.edge) * edges + float(g.diagonal) * diagonals;
+            }
+        }
+    }
+}
+
+TEST(Evaluator, FloatLevelRowsAreBitIdenticalToTheScalarDefinition) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    std::mt19937 random(7);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (const BufferLayout layout : {BufferLayout{0, 3, 3}, BufferLayout{1, 3, 5}, BufferLayout{2, 3, 5}}) {
+        std::vector<float> source(std::size_t(r.perLevel.controlCount) * layout.stride);
+        for (float& x : source) x = uniform(random);
+        for (std::size_t k = 0; k < r.perLevel.levels.size(); ++k) {
+            const StencilLevel& level = r.perLevel.levels[k];
+            std::vector<float> actual(std::size_t(level.destinationCount) * layout.stride, -7.0f), expected = actual;
+            const std::uint64_t rows = level.rowEnd - level.rowBegin;
+            for (std::uint64_t piece = 0; piece < 3; ++piece)  // ranges ending mid-group
+                evaluateLevelRows(r.perLevel, k, source.data(), layout, actual.data(), layout, rows * piece / 3,
+                                  rows * (piece + 1) / 3);
+            referenceLevel(r.perLevel, k, source.data(), layout, expected.data(), layout);
+            for (std::size_t i = 0; i < actual.size(); ++i)
+                ASSERT_EQ(std::bit_cast<std::uint32_t>(actual[i]), std::bit_cast<std::uint32_t>(expected[i]))
+                    << "level " << k << ", value " << i << ", stride " << layout.stride;
+            source = std::move(actual);
+        }
+    }
+}
+
+// Normals by the definition, in float: Newell sums per face in corner order, summed per
+// vertex in table order, normalised.
+std::vector<float> referenceNormals(const SurfaceTable& s, const std::vector<float>& p, std::size_t stride) {
+    std::vector<float> faceNormals(3 * (s.faceOffsets.size() - 1)), out(3 * std::size_t(s.vertexCount));
+    for (std::size_t f = 0; f + 1 < s.faceOffsets.size(); ++f) {
+        float n[3] = {0, 0, 0};
+        for (std::uint32_t c = s.faceOffsets[f], end = s.faceOffsets[f + 1]; c < end; ++c) {
+            const float* a = &p[s.faceVerts[c] * stride];
+            const float* b = &p[s.faceVerts[c + 1 == end ? s.faceOffsets[f] : c + 1] * stride];
+            n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        }
+        std::copy(n, n + 3, &faceNormals[3 * f]);
+    }
+    for (std::uint32_t v = 0; v < s.vertexCount; ++v) {
+        float n[3] = {0, 0, 0};
+        for (std::uint32_t i = s.vertexOffsets[v]; i < s.vertexOffsets[v + 1]; ++i)
+            for (int axis = 0; axis < 3; ++axis) n[axis] += faceNormals[3 * s.vertexFaces[i] + axis];
+        const float length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        const float scale = length > 0 ? 1 / length : 0;
+        for (int axis = 0; axis < 3; ++axis) out[3 * v + axis] = n[axis] * scale;
+    }
+    return out;
+}
+
+TEST(Evaluator, FloatNormalsAreBitIdenticalToTheDefinition) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 2);
+    // The refined surface (all quads) and the control mesh (triangles and quads).
+    const SurfaceTable control = buildSurfaceTable(r.hierarchy.levels.front().faces);
+    for (const bool refined : {true, false}) {
+        const SurfaceTable& surface = refined ? r.surface : control;
+        for (const std::uint32_t width : {3u, 4u}) {
+            std::mt19937 random(11);
+            std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+            std::vector<float> positions(std::size_t(surface.vertexCount) * width);
+            for (float& x : positions) x = uniform(random);
+            const std::vector<float> expected = referenceNormals(surface, positions, width);
+            for (const int threads : {1, 2}) {
+                CpuEvaluator<float> evaluator(r.perLevel, r.factorized, surface, TableForm::PerLevel, width, threads);
+                std::vector<float> normals(expected.size(), -7.0f);
+                evaluator.normals(positions, normals);
+                for (std::size_t i = 0; i < normals.size(); ++i)
+                    ASSERT_EQ(std::bit_cast<std::uint32_t>(normals[i]), std::bit_cast<std::uint32_t>(expected[i]))
+                        << (refined ? "refined" : "control") << " surface, width " << width << ", threads "
+                        << threads << ", value " << i;
+            }
+        }
     }
 }
 

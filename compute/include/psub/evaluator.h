@@ -61,6 +61,12 @@ public:
     void normals(std::span<const T> refined, std::span<T> normals);
 
 private:
+    // The two passes of normals(), run by each thread of its team on its share.
+    void faceNormalsScalar(const T* positions);
+    void vertexNormalsScalar(T* normals) const;
+    void faceNormalsSimd(const T* positions);   // float only
+    void vertexNormalsSimd(T* normals) const;   // float only
+
     const PerLevelTable& perLevel_;
     const FactorizedTable& factorized_;
     const SurfaceTable& surface_;
@@ -69,7 +75,8 @@ private:
     int threads_;
     std::vector<T> levels_;                 // intermediate levels, back to back
     std::vector<std::uint64_t> levelBase_;  // offset of each intermediate level in levels_
-    std::vector<T> faceNormals_;
+    std::vector<T> faceNormals_;  // 4 per face, the 4th 0
+    bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f
 };
 
 extern template class CpuEvaluator<float>;
