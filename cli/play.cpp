@@ -465,7 +465,7 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
                "Examples:\n  psub play data/spot_control_mesh.obj --levels 5 --frames 300 --anim twist\n"
                "  psub play data/cow.obj --levels 4 --backend vulkan --json\n"
                "  psub play data/cube.obj --levels 6 --frames 60 --render frames/ --size 640x360\n"
-               "  psub play character.glb --anim Walk --levels 3 --verify");
+               "  psub play data/two_bone_cylinder.glb --anim bend --levels 4 --verify");
     return pl;
 }
 
