@@ -161,6 +161,14 @@ TEST(PlayRender, WritesOnePictureAFrameAndTimesTheDraw) {
     fs::remove_all(dir);
 }
 
+TEST(PlayBundled, TheGlbExamplePlaysItsClips) {
+    for (const char* clip : {"bend", "step", "cubic"}) {
+        const Outcome r = psub("play '" + test::dataPath("two_bone_cylinder.glb") + "' --levels 3 --frames 10 --verify --json --anim " + clip);
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_TRUE(contains(r.out, "\"verified_frames\": 10")) << r.out;
+    }
+}
+
 TEST(PlayErrors, BadInputAndUsage) {
     const std::string cube = "'" + test::dataPath("cube.obj") + "'";
     EXPECT_EQ(psub("play /nonexistent.obj").status, 1);
