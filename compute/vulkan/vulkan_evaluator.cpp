@@ -475,26 +475,32 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& 
     const Buffer vertexOffsets = fixedVertices ? Buffer{} : uploader.upload(vertexRelative, tables);
     const Buffer vertexFaces = fixedVertices ? Buffer{} : uploader.upload(surface.vertexFaces, tables);
 
+    // One chunk of a CSR table (row offsets, entries) as a dispatch from `from` to `to`.
+    const auto csrDispatch = [&](const CsrChunk& c, const Buffer& offsets, const Buffer& entries,
+                                 const VertexBuffer& from, const VertexBuffer& to) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &from;
+        d.destination = &to;
+        d.tables[0] = window(offsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(entries, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = d.tables[1];
+        d.push.rowBase = std::uint32_t(c.rowBegin);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = from.windowSize;
+        d.push.destinationWindowSize = to.windowSize;
+        return d;
+    };
     Stage faceStage;
     faceStage.kernel = Kernel::FaceNormals;
     faceStage.specialization = {3, positions.stride, faceNormals.stride, positions.windows > 1, faceNormals.windows > 1};
     faceStage.written = &faceNormals;
     for (const CsrChunk& c : faceChunks) {
-        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
-        d.source = &positions;
-        d.destination = &faceNormals;
-        d.tables[0] = window(faceOffsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
-        d.tables[1] = window(faceVerts, 4, c.entryBegin, c.entryEnd);
-        d.tables[2] = d.tables[1];
-        d.push.rowBase = std::uint32_t(c.rowBegin);
-        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        Dispatch d = csrDispatch(c, faceOffsets, faceVerts, positions, faceNormals);
         if (allQuads) {  // corners of row r at 4 r from tableBase, fetched as one uvec4
             d.rowN = 4;
             d.texelFormats[1] = VK_FORMAT_R32G32B32A32_UINT;
             d.push.tableBase = std::uint32_t(c.entryBegin - d.tables[1].firstElement);
         }
-        d.push.sourceWindowSize = positions.windowSize;
-        d.push.destinationWindowSize = faceNormals.windowSize;
         faceStage.dispatches.push_back(d);
     }
     Stage vertexStage;
@@ -517,19 +523,8 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& 
         d.push.destinationWindowSize = normals.windowSize;
         vertexStage.dispatches.push_back(d);
     }
-    for (const CsrChunk& c : vertexChunks) {
-        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
-        d.source = &faceNormals;
-        d.destination = &normals;
-        d.tables[0] = window(vertexOffsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
-        d.tables[1] = window(vertexFaces, 4, c.entryBegin, c.entryEnd);
-        d.tables[2] = d.tables[1];
-        d.push.rowBase = std::uint32_t(c.rowBegin);
-        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
-        d.push.sourceWindowSize = faceNormals.windowSize;
-        d.push.destinationWindowSize = normals.windowSize;
-        vertexStage.dispatches.push_back(d);
-    }
+    for (const CsrChunk& c : vertexChunks)
+        vertexStage.dispatches.push_back(csrDispatch(c, vertexOffsets, vertexFaces, faceNormals, normals));
     normalStages.push_back(std::move(faceStage));
     normalStages.push_back(std::move(vertexStage));
 }
