@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # PSub one-step set-up: installs the Debian packages the build needs (quiet when they are
 # already there), builds, then runs `psub demo` (mode demo, ./build), the tests (mode test,
-# ./build), or the tests under AddressSanitizer + UBSan (mode sanitize, ./build-asan).
+# ./build), or the tests under AddressSanitizer + UBSan (mode sanitize, ./build-asan). The
+# test modes also install the glTF validator from the npm registry.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:-demo}
@@ -9,8 +10,13 @@ case "$mode" in demo | test | sanitize) ;; *) echo "usage: scripts/setup.sh demo
 
 packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev libeigen3-dev libpng-dev
           libtinygltf-dev libstb-dev nlohmann-json3-dev libglm-dev
-          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools)
+          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools nodejs npm)
 scripts/install-packages.sh "${packages[@]}"
+# The Khronos glTF Validator (npm, version pinned in tests/gltf_validator/package-lock.json),
+# which the tests run on every bundled and written glTF file.
+if [ "$mode" != demo ] && [ ! -d tests/gltf_validator/node_modules/gltf-validator ]; then
+  npm ci --prefix tests/gltf_validator --silent --no-audit --no-fund >/dev/null
+fi
 
 if [ "$mode" = sanitize ]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPSUB_SANITIZE=ON >/dev/null

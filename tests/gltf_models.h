@@ -22,49 +22,60 @@ struct ModelBuilder {
         model.asset.version = "2.0";
     }
 
-    int view(const void* data, std::size_t bytes) {
+    // target: TINYGLTF_TARGET_ARRAY_BUFFER for vertex attributes, _ELEMENT_ARRAY_BUFFER for
+    // indices, 0 for other data (the validator asks for it on vertex and index data).
+    int view(const void* data, std::size_t bytes, int target = 0) {
         std::vector<unsigned char>& buffer = model.buffers[0].data;
         while (buffer.size() % 4 != 0) buffer.push_back(0);
         tinygltf::BufferView bufferView;
         bufferView.buffer = 0;
         bufferView.byteOffset = buffer.size();
         bufferView.byteLength = bytes;
+        bufferView.target = target;
         const auto* begin = static_cast<const unsigned char*>(data);
         buffer.insert(buffer.end(), begin, begin + bytes);
         model.bufferViews.push_back(bufferView);
         return int(model.bufferViews.size() - 1);
     }
-    int add(const void* data, std::size_t bytes, int componentType, int type, std::size_t count) {
+    int add(const void* data, std::size_t bytes, int componentType, int type, std::size_t count, int target = 0) {
         tinygltf::Accessor accessor;
-        accessor.bufferView = view(data, bytes);
+        accessor.bufferView = view(data, bytes, target);
         accessor.componentType = componentType;
         accessor.type = type;
         accessor.count = count;
         model.accessors.push_back(accessor);
         return int(model.accessors.size() - 1);
     }
-    int floats(const std::vector<float>& values, int type, std::size_t width) {
+    int floats(const std::vector<float>& values, int type, std::size_t width, int target = 0) {
         return add(values.data(), values.size() * sizeof(float), TINYGLTF_COMPONENT_TYPE_FLOAT, type,
-                   values.size() / width);
+                   values.size() / width, target);
+    }
+    int attribute(const std::vector<float>& values, int type, std::size_t width) {
+        return floats(values, type, width, TINYGLTF_TARGET_ARRAY_BUFFER);
+    }
+    // Sets min and max of a float accessor from its values (required on POSITION and on
+    // animation sampler inputs).
+    void bound(int index, const std::vector<float>& values, std::size_t width) {
+        auto& accessor = model.accessors[std::size_t(index)];
+        accessor.minValues.assign(width, 1e30);
+        accessor.maxValues.assign(width, -1e30);
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            accessor.minValues[i % width] = std::min(accessor.minValues[i % width], double(values[i]));
+            accessor.maxValues[i % width] = std::max(accessor.maxValues[i % width], double(values[i]));
+        }
     }
     int positions(const std::vector<float>& values) {
-        const int index = floats(values, TINYGLTF_TYPE_VEC3, 3);
-        auto& accessor = model.accessors[std::size_t(index)];
-        accessor.minValues = {1e30, 1e30, 1e30};
-        accessor.maxValues = {-1e30, -1e30, -1e30};
-        for (std::size_t i = 0; i < values.size(); ++i) {
-            accessor.minValues[i % 3] = std::min(accessor.minValues[i % 3], double(values[i]));
-            accessor.maxValues[i % 3] = std::max(accessor.maxValues[i % 3], double(values[i]));
-        }
+        const int index = attribute(values, TINYGLTF_TYPE_VEC3, 3);
+        bound(index, values, 3);
         return index;
     }
     int joints(const std::vector<std::uint16_t>& values) {
         return add(values.data(), values.size() * 2, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, TINYGLTF_TYPE_VEC4,
-                   values.size() / 4);
+                   values.size() / 4, TINYGLTF_TARGET_ARRAY_BUFFER);
     }
     int indices(const std::vector<std::uint32_t>& values) {
         return add(values.data(), values.size() * 4, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR,
-                   values.size());
+                   values.size(), TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
     }
 
     // A clip of one channel.
@@ -74,6 +85,7 @@ struct ModelBuilder {
         animation.name = name;
         tinygltf::AnimationSampler sampler;
         sampler.input = floats(times, TINYGLTF_TYPE_SCALAR, 1);
+        bound(sampler.input, times, 1);
         sampler.output = floats(values, type, width);
         sampler.interpolation = interpolation;
         animation.samplers.push_back(sampler);
@@ -100,7 +112,7 @@ struct ModelBuilder {
 // repeated (as glTF exporters split UV seams); two primitives, rings 0-2 and rings 2-4, so
 // ring 2 appears twice. Joint 0 (node 0, root at the base) and joint 1 (node 1, at y = 1,
 // child of node 0); weights of joint 1 by ring: 0, 0.25, 0.5, 0.75, 1. Node 2 holds the mesh
-// and the skin; node 3 is a prop outside the skin.
+// and the skin; node 3 is a prop outside the skin (a camera).
 constexpr int kRings = 5, kColumns = 8, kRowSize = kColumns + 1;
 constexpr double kRadius = 0.5;
 inline const float kJoint1Weight[kRings] = {0, 0.25f, 0.5f, 0.75f, 1};
@@ -124,7 +136,8 @@ inline tinygltf::Primitive cylinderPrimitive(ModelBuilder& b, int firstRing, flo
             const auto point = cylinderPoint(ring, column);
             positions.insert(positions.end(), point.begin(), point.end());
             const float w1 = ring == 2 ? joint1WeightOfSharedRing : kJoint1Weight[ring];
-            joints.insert(joints.end(), {0, 1, 0, 0});
+            // a joint of zero weight is named 0, as the validator asks
+            joints.insert(joints.end(), {0, std::uint16_t(w1 == 0 ? 0 : 1), 0, 0});
             weights.insert(weights.end(), {1 - w1, w1, 0, 0});
         }
     std::vector<std::uint32_t> indices;
@@ -138,7 +151,7 @@ inline tinygltf::Primitive cylinderPrimitive(ModelBuilder& b, int firstRing, flo
     primitive.mode = TINYGLTF_MODE_TRIANGLES;
     primitive.attributes["POSITION"] = b.positions(positions);
     primitive.attributes["JOINTS_0"] = b.joints(joints);
-    primitive.attributes["WEIGHTS_0"] = b.floats(weights, TINYGLTF_TYPE_VEC4, 4);
+    primitive.attributes["WEIGHTS_0"] = b.attribute(weights, TINYGLTF_TYPE_VEC4, 4);
     primitive.indices = b.indices(indices);
     accessors.positions.push_back(primitive.attributes["POSITION"]);
     accessors.joints.push_back(primitive.attributes["JOINTS_0"]);
@@ -172,6 +185,13 @@ inline Cylinder makeCylinder(float upperSharedWeight = 0.5f) {
     holder.mesh = 0;
     holder.skin = 0;
     prop.name = "prop";
+    prop.camera = 0;  // a camera, so that the validator does not call the node empty
+    tinygltf::Camera camera;
+    camera.type = "perspective";
+    camera.perspective.yfov = 0.8;
+    camera.perspective.znear = 0.1;
+    camera.perspective.zfar = 100;
+    b.model.cameras.push_back(camera);
     b.model.nodes = {root, mid, holder, prop};
 
     tinygltf::Skin skin;

@@ -449,6 +449,17 @@ TEST_F(Gltf, ClipOnANodeOutsideTheSkinChangesNothing) {
     EXPECT_EQ(posed, still);
 }
 
+// data/two_bone_cylinder.glb is this file's cylinder, written as .glb. PSUB_REGENERATE_DATA=1
+// rewrites it from the builder (after a change to tests/gltf_models.h); the test then passes.
+TEST_F(Gltf, BundledCylinderIsTheTestModel) {
+    const std::string generated = readText(write(makeCylinder().builder.model, "cylinder.glb"));
+    const std::string bundled = dataPath("two_bone_cylinder.glb");
+    if (const char* regenerate = std::getenv("PSUB_REGENERATE_DATA"); regenerate && std::string(regenerate) == "1")
+        std::ofstream(bundled, std::ios::binary) << generated;
+    EXPECT_TRUE(readText(bundled) == generated)
+        << bundled << " differs from makeCylinder(): rerun with PSUB_REGENERATE_DATA=1";
+}
+
 TEST_F(Gltf, MorphTargetWithWeightHalfGivesHalfTheDelta) {
     const GltfAsset asset = readGltf(write(makeMorphedQuad().model, "quad.gltf"));
     EXPECT_EQ(asset.morphs.targetCount, 1u);
