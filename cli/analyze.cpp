@@ -108,7 +108,7 @@ int runBoundaryAspect(const AnalyzeOptions& options) {
         return 0;
     }
     std::printf("%s: triangles along the boundary after each P-S step; aspect = longest edge / height on it\n"
-                "(equilateral 1.155). paper: SPEC.md, the boundary is never refined. smooth (--boundary smooth,\n"
+                "(equilateral 1.155). paper: docs/scheme.md, the boundary is never refined. smooth (--boundary smooth,\n"
                 "beyond the paper): boundary edges split every second step, cubic B-spline rules.\n\n",
                 options.boundaryModel.c_str());
     std::printf("%5s  %10s %12s %12s  %10s %12s %12s\n", "level", "paper: tri", "worst", "median", "smooth: tri", "worst",

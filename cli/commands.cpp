@@ -299,7 +299,7 @@ void printShapes(const Loaded& loaded, const Hierarchy& hierarchy,
                         c.diagonal, ps.volume / c.volume);
         }
     std::printf("A P-S/CC volume below 1 means P-S shrinks the model more than Catmull-Clark "
-                "(SPEC.md, \"The paper's claims\").\n");
+                "(docs/scheme.md, \"The paper's claims\").\n");
 }
 
 // Frame `frame` of the demo's animation: a wave along x lifts the rest pose in y.

@@ -66,11 +66,11 @@ int main(int argc, char** argv) {
               "ps: P-S; cc: Catmull-Clark through OpenSubdiv (edge-only boundary, no creases)", "ps");
     addPreprocess(sub, subdivide.preprocess);
     addChoice(sub, "--rules", subdivide.rules, kRulesNames,
-              "paper: SPEC.md exactly; robust (beyond the paper): interior valence 2 gets c, d, e = "
+              "paper: docs/scheme.md exactly; robust (beyond the paper): interior valence 2 gets c, d, e = "
               "0, 1/3, 1/6 instead of the paper's folding -1/2, 1/2, 1/4 (--scheme ps only)",
               "paper");
     addChoice(sub, "--boundary", subdivide.boundary, kBoundaryNames,
-              "paper: SPEC.md exactly, the boundary is never refined (its triangles grow thin); "
+              "paper: docs/scheme.md exactly, the boundary is never refined (its triangles grow thin); "
               "smooth (beyond the paper): every second step splits the boundary edges with cubic "
               "B-spline rules, so after 2k steps the boundary is Catmull-Clark's after k (--scheme ps only)",
               "paper");
@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
     sub->footer("Example:\n  psub subdivide data/cow.obj -o cow_ps4.obj --levels 4\n"
                 "  psub subdivide data/cow.obj -o cow_cc2.obj --levels 2 --scheme cc\n"
                 "  psub subdivide data/grid4x4.obj -o grid_smooth.obj --levels 4 --boundary smooth\n"
-                "Vertex order (SPEC.md): children of old vertices first, then one vertex per "
+                "Vertex order (docs/scheme.md): children of old vertices first, then one vertex per "
                 "old face (then, --boundary smooth, one per split boundary edge, in edge order).");
 
     StatsOptions stats;

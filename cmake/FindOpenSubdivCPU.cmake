@@ -1,10 +1,16 @@
 # Finds Debian's OpenSubdiv CPU library by hand: its own OpenSubdivTargets.cmake names a
-# libosdCPU.a the package does not ship, so find_package(OpenSubdiv) fails (see DESIGN.md).
-find_path(OPENSUBDIV_INCLUDE_DIR opensubdiv/far/topologyRefiner.h REQUIRED)
-find_library(OPENSUBDIV_CPU_LIBRARY NAMES osdCPU REQUIRED)
-if(NOT TARGET psub_opensubdiv)
-  add_library(psub_opensubdiv INTERFACE)
-  target_include_directories(psub_opensubdiv SYSTEM INTERFACE ${OPENSUBDIV_INCLUDE_DIR})
-  target_link_libraries(psub_opensubdiv INTERFACE ${OPENSUBDIV_CPU_LIBRARY})
+# libosdCPU.a the package does not ship, so find_package(OpenSubdiv) fails (docs/design.md).
+# Gives the imported target OpenSubdivCPU::OpenSubdivCPU (headers as system headers); PSub's
+# package config uses this same file to find it again for psub::catmark's users.
+include(FindPackageHandleStandardArgs)
+find_path(OPENSUBDIV_INCLUDE_DIR opensubdiv/far/topologyRefiner.h)
+find_library(OPENSUBDIV_CPU_LIBRARY NAMES osdCPU)
+find_package_handle_standard_args(OpenSubdivCPU
+  REQUIRED_VARS OPENSUBDIV_CPU_LIBRARY OPENSUBDIV_INCLUDE_DIR
+  REASON_FAILURE_MESSAGE "OpenSubdiv's CPU library and headers (Debian: libosd-dev)")
+if(OpenSubdivCPU_FOUND AND NOT TARGET OpenSubdivCPU::OpenSubdivCPU)
+  add_library(OpenSubdivCPU::OpenSubdivCPU UNKNOWN IMPORTED)
+  set_target_properties(OpenSubdivCPU::OpenSubdivCPU PROPERTIES
+    IMPORTED_LOCATION "${OPENSUBDIV_CPU_LIBRARY}"
+    INTERFACE_INCLUDE_DIRECTORIES "${OPENSUBDIV_INCLUDE_DIR}")
 endif()
-message(STATUS "OpenSubdiv: ${OPENSUBDIV_CPU_LIBRARY} (headers in ${OPENSUBDIV_INCLUDE_DIR})")

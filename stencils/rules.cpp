@@ -1,4 +1,4 @@
-// The geometric rules of SPEC.md applied directly, vertex by vertex (the oracle).
+// The geometric rules of docs/scheme.md applied directly, vertex by vertex (the oracle).
 #include "psub/rules.h"
 
 #include <cassert>

@@ -77,7 +77,7 @@ struct StepRows {
         return triangles == 0 ? GroupKey{RowKind::VertexQuad, n, n} : GroupKey{RowKind::VertexMixed, n, quads};
     }
 
-    // Sources of row d: the centre, its n edge neighbours, its m diagonals (SPEC.md's Pi, Pj);
+    // Sources of row d: the centre, its n edge neighbours, its m diagonals (docs/scheme.md's Pi, Pj);
     // a boundary curve vertex: itself, then its boundary neighbours; an edge point: its ends.
     void sources(std::uint32_t d, std::uint32_t* out) const {
         if (d >= firstEdgePoint()) {

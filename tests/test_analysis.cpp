@@ -297,7 +297,7 @@ TEST(Fidelity, CubeShrinksToAFewPercentOfCatmullClarkAtEqualFaces) {
     EXPECT_EQ(f.psFaces, 96u);
     EXPECT_EQ(f.ccFaces, 96u);
     EXPECT_NEAR(f.input.volume, 8, 1e-12);
-    EXPECT_GT(f.ps.volume / f.cc.volume, 0.02);  // SPEC.md: about 3%
+    EXPECT_GT(f.ps.volume / f.cc.volume, 0.02);  // docs/scheme.md: about 3%
     EXPECT_LT(f.ps.volume / f.cc.volume, 0.05);
     EXPECT_GT(f.hausdorff(), 0.1 * f.cc.diagonal());
     EXPECT_GE(f.hausdorff(), f.meanDistance());

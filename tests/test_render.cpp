@@ -517,7 +517,7 @@ TEST_F(RenderCommand, Figure5RowsShowPSBesideCatmullClarkOnOneCamera) {
         EXPECT_GT(row.height, 120u) << name;  // the caption band
     }
     // The cube row: input, P-S 4 steps, Catmull-Clark 2 levels, one camera. P-S shrinks the cube
-    // far more than Catmull-Clark does (SPEC.md, "The paper's claims"): fewer covered pixels.
+    // far more than Catmull-Clark does (docs/scheme.md, "The paper's claims"): fewer covered pixels.
     const Image cube = readPng((dir_ / "figure5_cube.png").string());
     std::size_t covered[3] = {0, 0, 0};
     for (std::uint32_t y = 0; y < 120; ++y)

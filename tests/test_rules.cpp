@@ -1,4 +1,4 @@
-// SPEC.md's geometric rules with hand-computed values, plus invariants (weights, affinity).
+// The geometric rules of docs/scheme.md with hand-computed values, plus invariants (weights, affinity).
 #include "psub/rules.h"
 #include "test_support.h"
 

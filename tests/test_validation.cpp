@@ -1,4 +1,4 @@
-// SPEC.md "Bad input": every defect is rejected with a message naming file, line and element;
+// docs/scheme.md, "Bad input": every defect is rejected with a message naming file, line and element;
 // non-manifold vertices and unused vertices are accepted with warnings; the psub program
 // exits 1 with one error line and leaves no output behind.
 #include "psub/topology.h"

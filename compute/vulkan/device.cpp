@@ -99,7 +99,7 @@ VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT 
     context->messages.fetch_add(1);
     messageTotal.fetch_add(1);
     {
-        std::lock_guard guard(context->lock);
+        std::lock_guard guard(context->messageLock);
         context->lastMessage = text;
     }
     std::fprintf(stderr, "psub: Vulkan validation %s: %s\n", level, text.c_str());
@@ -348,7 +348,7 @@ std::string VulkanContext::deviceName() const { return impl_->properties.deviceN
 bool VulkanContext::validationEnabled() const { return impl_->validation; }
 std::uint64_t VulkanContext::validationMessageCount() const { return impl_->messages.load(); }
 std::string VulkanContext::lastValidationMessage() const {
-    std::lock_guard guard(impl_->lock);
+    std::lock_guard guard(impl_->messageLock);
     return impl_->lastMessage;
 }
 

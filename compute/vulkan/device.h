@@ -27,7 +27,10 @@ struct VulkanContext::Impl {
     bool validation = false, log = false;
 
     std::atomic<std::uint64_t> messages{0};
-    mutable std::mutex lock;  // guards lastMessage and queue submissions
+    // Two locks, never held together: the messenger callback runs inside Vulkan calls,
+    // vkQueueSubmit among them, so it must not wait for the lock the submitter holds.
+    mutable std::mutex messageLock;  // guards lastMessage (taken by the messenger callback)
+    mutable std::mutex submitLock;   // serializes queue submissions
     std::string lastMessage;
 
     std::unique_ptr<vulkan::Pipelines> pipelines;

@@ -122,7 +122,7 @@ void submitAndWait(VulkanContext::Impl& context, VkCommandBuffer command, VkFenc
     info.commandBufferCount = 1;
     info.pCommandBuffers = &command;
     {
-        std::lock_guard guard(context.lock);
+        std::lock_guard guard(context.submitLock);
         VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
     }
     VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));

@@ -37,7 +37,8 @@ void bufferBarrier(VkCommandBuffer command, const Buffer& buffer, VkPipelineStag
 void memoryBarrier(VkCommandBuffer command, VkPipelineStageFlags sourceStage, VkAccessFlags sourceAccess,
                    VkPipelineStageFlags destinationStage, VkAccessFlags destinationAccess);
 
-// Submits one recorded command buffer to the context's queue (under its lock), waits for
+// Submits one recorded command buffer to the context's queue (under its submit lock; a
+// validation message raised meanwhile is still recorded: the messenger has its own lock), waits for
 // `fence` and resets it.
 void submitAndWait(VulkanContext::Impl& context, VkCommandBuffer command, VkFence fence);
 

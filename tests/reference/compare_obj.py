@@ -1,5 +1,5 @@
-# Owns: the OBJ result comparator of SPEC.md section 3 (vertex positions index by index, faces as a multiset up to rotation).
-"""Compare two OBJ meshes the way SPEC.md section 3 defines equality.
+# Owns: the OBJ result comparator of docs/scheme.md, "Output order" (vertex positions index by index, faces as a multiset up to rotation).
+"""Compare two OBJ meshes the way docs/scheme.md, "Output order" defines equality.
 
     python3 compare_obj.py A.obj B.obj [--tol 1e-5]
 
@@ -95,7 +95,7 @@ def compare(a_path, b_path, tol):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description='Compare two OBJ meshes (SPEC.md section 3).')
+    ap = argparse.ArgumentParser(description='Compare two OBJ meshes (docs/scheme.md, "Output order").')
     ap.add_argument('a')
     ap.add_argument('b')
     ap.add_argument('--tol', type=float, default=1e-5)

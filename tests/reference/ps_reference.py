@@ -1,5 +1,5 @@
-# Owns: the naive, independent plain-Python reference of SPEC.md (paired-method preprocessing + P-S steps) used by the tests.
-"""Naive reference implementation of the P-S subdivision scheme as stated in SPEC.md.
+# Owns: the naive, independent plain-Python reference of docs/scheme.md (paired-method preprocessing + P-S steps) used by the tests.
+"""Naive reference implementation of the P-S subdivision scheme as stated in docs/scheme.md.
 
 Deliberately simple and independent of the C++ engine: plain lists and dicts, no
 half-edge structure beyond a dict keyed by directed edges (a, b).
@@ -11,7 +11,7 @@ half-edge structure beyond a dict keyed by directed edges (a, b).
 a->b at M = (a + b) / 2, appended after the F-vertices in edge order, into the triangles
 [a, M, F_f], [M, b, F_f]; a manifold boundary vertex moves to (prev + 6 v + next) / 8.
 
-Output order (SPEC.md section 3 plus the engine's face-order convention):
+Output order (docs/scheme.md, "Output order" plus the engine's face-order convention):
   vertices: V-vertices of the old vertices in old order, then F-vertices in old face order;
   faces:    old faces in order, within a face its edges corner i -> corner i+1; a new face is
             emitted the first time an undirected edge is met, built from that half-edge a->b:
@@ -331,7 +331,7 @@ def run(pos, faces, levels, mode='auto', boundary='paper'):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description='Naive reference P-S subdivision (SPEC.md).')
+    ap = argparse.ArgumentParser(description='Naive reference P-S subdivision (docs/scheme.md).')
     ap.add_argument('input')
     ap.add_argument('-o', '--output', required=True)
     ap.add_argument('--levels', type=int, default=1)

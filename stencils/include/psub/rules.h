@@ -1,4 +1,4 @@
-// psub/rules.h: SPEC.md's geometric rules, stated once (the weights c,d,e and f,g,h) and
+// psub/rules.h: the geometric rules of docs/scheme.md, stated once (the weights c,d,e and f,g,h) and
 // applied the plain way, level by level, to xyz positions. This readable path is the
 // engine's oracle for the table-driven evaluators; keep it obviously correct, not fast.
 #pragma once
@@ -15,7 +15,7 @@ struct VertexWeights {
     double centre, edge, diagonal;
 };
 
-// Which rules a refinement follows. Paper: SPEC.md exactly (the default everywhere).
+// Which rules a refinement follows. Paper: docs/scheme.md exactly (the default everywhere).
 // Robust (beyond the paper, never the default): the same, except that an interior vertex of
 // valence 2 with both faces quads gets c, d, e = 0, 1/3, 1/6, where the paper's c = -1/2
 // folds the two faces back to back.

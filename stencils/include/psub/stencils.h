@@ -1,7 +1,7 @@
 // psub/stencils.h: builds the stencil tables of psub/tables.h from a refinement hierarchy with
-// SPEC.md's rules, so that every refined vertex is a fixed linear combination of coarser ones;
-// and `refine`, which takes a mesh all the way to its tables. Reads topology; never evaluates
-// anything per frame.
+// the rules of docs/scheme.md, so that every refined vertex is a fixed linear combination of
+// coarser ones; and `refine`, which takes a mesh all the way to its tables. Reads topology;
+// never evaluates anything per frame.
 #pragma once
 
 #include "psub/rules.h"

@@ -32,7 +32,7 @@ struct RowGroup {
 };
 
 // One level's slice of the per-level table. Vertex numbers are those of the level (source:
-// parent level, destination: child level), as in SPEC.md's output order.
+// parent level, destination: child level), as in the output order of docs/scheme.md.
 struct StencilLevel {
     std::uint32_t sourceCount, destinationCount;
     std::uint64_t groupBegin, groupEnd;  // into PerLevelTable::groups

@@ -117,7 +117,7 @@ struct Connectivity {
 Connectivity buildConnectivity(const Faces& faces, const Source& source = {});
 
 // ---------------------------------------------------------------------------------------
-// Validation (SPEC.md "Bad input")
+// Validation (docs/scheme.md, "Bad input")
 
 struct CheckedMesh {
     Connectivity connectivity;
@@ -126,7 +126,7 @@ struct CheckedMesh {
 
 // Checks faces (at least one, at least 3 corners, no repeated vertex, indices in range) and
 // positions (finite, 3 per vertex), builds connectivity (manifold edges, consistent
-// orientation). Throws InputError naming the first defect; returns warnings for what SPEC.md
+// orientation). Throws InputError naming the first defect; returns warnings for what docs/scheme.md
 // accepts (unused vertices, non-manifold vertices).
 CheckedMesh checkMesh(const Mesh& mesh);
 void validateFaces(const Faces& faces, const Source& source = {});
@@ -144,7 +144,7 @@ Index firstNonPSFace(const Faces& faces, const Connectivity& connectivity);
 bool needsPreprocessing(const Faces& faces, const Connectivity& connectivity, Preprocess mode,
                         const Source& source = {});
 
-// How the boundary is refined (SPEC.md, "[decision] Boundary").
+// How the boundary is refined (docs/scheme.md, "Decisions").
 // Paper (the default): boundary vertices and edges are kept, never refined.
 // Smooth (beyond the paper, never the default): the first P-S step of every pair (P-S steps
 // 1, 3, 5, ...; the paired method is not counted) also splits each boundary edge at a new
