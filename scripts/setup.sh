@@ -9,7 +9,8 @@ case "$mode" in demo | test | sanitize) ;; *) echo "usage: scripts/setup.sh demo
 
 packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev libeigen3-dev libpng-dev
           libtinygltf-dev libstb-dev nlohmann-json3-dev libglm-dev
-          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools)
+          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools
+          libglfw3-dev xvfb xauth)
 scripts/install-packages.sh "${packages[@]}"
 
 if [ "$mode" = sanitize ]; then
