@@ -234,9 +234,9 @@ struct Viewer {
 
     std::shared_ptr<Built> built;
     std::future<Built> pending;
-    int levels, scheme, wireframe;
-    Rules rules;
-    Boundary boundary;
+    int levels, scheme, wireframe, wantedLevels;
+    Rules rules, wantedRules;
+    Boundary boundary, wantedBoundary;
     bool playing, help = false, quit = false, framed = false;
     std::unique_ptr<CpuEvaluator<float>> cpu, ccNormals;
     std::unique_ptr<VulkanEvaluator> gpu;
@@ -256,7 +256,8 @@ struct Viewer {
 
     Viewer(const ViewOptions& options, Animated& a)
         : o(options), animated(a), levels(options.levels), scheme(options.scheme), wireframe(options.wireframe),
-          rules(options.rules), boundary(options.boundary), playing(!options.paused) {}
+          wantedLevels(options.levels), rules(options.rules), wantedRules(options.rules), boundary(options.boundary),
+          wantedBoundary(options.boundary), playing(!options.paused) {}
 
     bool showsPs() const { return scheme != 1; }
     bool showsCc() const { return scheme != 0; }
@@ -264,7 +265,7 @@ struct Viewer {
     std::uint64_t ccFaces() const { return built->cc.faceOffsets.size() - 1; }
 
     void act(Action action);
-    void rebuild(int newLevels, Rules newRules, Boundary newBoundary);
+    void startBuild();
     void adopt(Built b);
     void makeRenderers();
     void drawFrame(bool capture);
@@ -274,15 +275,12 @@ struct Viewer {
     void writeLog(int index);
 };
 
-void Viewer::rebuild(int newLevels, Rules newRules, Boundary newBoundary) {
-    if (pending.valid()) {
-        notice = "still building the last change";
-        return;
-    }
-    if (newLevels < 0 || newLevels > 30) return;
-    notice = "building level " + std::to_string(newLevels) + "...";
-    pending = std::async(std::launch::async, [this, newLevels, newRules, newBoundary] {
-        return buildTables(animated, newLevels, newRules, newBoundary);
+// Starts building the tables the keys asked for, unless a build runs or they are drawn already.
+void Viewer::startBuild() {
+    if (pending.valid() || (wantedLevels == levels && wantedRules == rules && wantedBoundary == boundary)) return;
+    notice = "building level " + std::to_string(wantedLevels) + "...";
+    pending = std::async(std::launch::async, [this, l = wantedLevels, r = wantedRules, b = wantedBoundary] {
+        return buildTables(animated, l, r, b);
     });
 }
 
@@ -290,6 +288,7 @@ void Viewer::adopt(Built b) {
     if (!b.error.empty()) {
         notice = b.error;
         std::fprintf(stderr, "psub: view: level refused: %s\n", b.error.c_str());
+        wantedLevels = levels, wantedRules = rules, wantedBoundary = boundary;
         return;
     }
     notice.clear();
@@ -317,10 +316,10 @@ void Viewer::adopt(Built b) {
 
 void Viewer::act(Action action) {
     switch (action) {
-    case Action::LevelUp: rebuild(levels + 1, rules, boundary); break;
-    case Action::LevelDown: rebuild(levels - 1, rules, boundary); break;
-    case Action::Boundary: rebuild(levels, rules, boundary == Boundary::Paper ? Boundary::Smooth : Boundary::Paper); break;
-    case Action::Rules: rebuild(levels, rules == Rules::Paper ? Rules::Robust : Rules::Paper, boundary); break;
+    case Action::LevelUp: wantedLevels = std::min(30, wantedLevels + 1); break;
+    case Action::LevelDown: wantedLevels = std::max(0, wantedLevels - 1); break;
+    case Action::Boundary: wantedBoundary = wantedBoundary == Boundary::Paper ? Boundary::Smooth : Boundary::Paper; break;
+    case Action::Rules: wantedRules = wantedRules == Rules::Paper ? Rules::Robust : Rules::Paper; break;
     case Action::Scheme: scheme = (scheme + 1) % 3, drawingDirty = true; break;
     case Action::Wireframe: wireframe = (wireframe + 1) % 3, drawingDirty = true; break;
     case Action::Play: playing = !playing; break;
@@ -441,9 +440,10 @@ void Viewer::hud() {
                   stage[Present], playing ? "playing" : "paused", kWireframeNames[wireframe],
                   boundary == Boundary::Paper ? "paper" : "smooth", rules == Rules::Paper ? "paper" : "robust",
                   notice.empty() ? "" : "\n", notice.c_str());
-    const auto size = textSize(text, 2);
+    const int scale = frame.width >= 1200 ? 2 : 1;  // the stage line fits 1280 pixels at scale 2
+    const auto size = textSize(text, scale);
     fillRect(frame, 4, 4, size[0] + 14, size[1] + 12, {240, 240, 240, 255});
-    drawText(frame, 10, 10, text, 2, {20, 20, 20, 255});
+    drawText(frame, 10, 10, text, scale, {20, 20, 20, 255});
     if (!help) return;
     const char* keys =
         "mouse: left drag orbit, right drag pan, wheel zoom\n"
@@ -451,10 +451,10 @@ void Viewer::hud() {
         "w  wireframe none/refined/control   space  play / pause\n"
         "b  boundary paper/smooth      r  rules paper/robust\n"
         "f  frame the model   h  this help   Esc  quit";
-    const auto helpSize = textSize(keys, 2);
+    const auto helpSize = textSize(keys, scale);
     const int x = 10, y = size[1] + 24;
     fillRect(frame, x - 6, y - 6, x + helpSize[0] + 6, y + helpSize[1] + 6, {255, 250, 220, 255});
-    drawText(frame, x, y, keys, 2, {20, 20, 20, 255});
+    drawText(frame, x, y, keys, scale, {20, 20, 20, 255});
 }
 
 void Viewer::writeLog(int index) {
@@ -566,6 +566,7 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
         }
         if (v.quit) break;
         if (v.pending.valid() && v.pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) v.adopt(v.pending.get());
+        v.startBuild();
         int w = 0, h = 0;
         glfwGetFramebufferSize(v.window, &w, &h);
         if (w == 0 || h == 0) {  // minimised: nothing to draw

@@ -58,13 +58,22 @@ Outcome run(const std::string& prefix, const std::string& args) {
 // psub view under a fresh Xvfb server.
 Outcome view(const std::string& args) { return run("xvfb-run -a -s '-screen 0 1600x1200x24'", "view " + args); }
 
+// A path in single quotes for the shell (built by appending: GCC 12 warns falsely on
+// "literal" + temporary).
+std::string q(const std::string& path) {
+    std::string quoted(1, '\'');
+    quoted += path;
+    quoted += '\'';
+    return quoted;
+}
+
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 // Why psub view cannot run here (asked once): empty when it can.
 const std::string& windowProblem() {
     static const std::string problem = [] {
         if (std::system("command -v xvfb-run >/dev/null 2>&1") != 0) return std::string("xvfb-run is not installed");
-        const Outcome r = view("'" + test::dataPath("cube.obj") + "' --levels 1 --frames 1");
+        const Outcome r = view(q(test::dataPath("cube.obj")) + " --levels 1 --frames 1");
         return r.status == 0 ? std::string() : "psub view failed: " + r.err;
     }();
     return problem;
@@ -150,7 +159,7 @@ TEST_F(View, StartFrameWithoutHudMatchesPsubRender) {
 
 TEST_F(View, PlusDoublesTheLoggedFaceCount) {
     const std::string log = temp("plus.jsonl");
-    const Outcome r = view("'" + test::dataPath("cube.obj") + "' --levels 3 --size 320x240 --frames 40 --script '" +
+    const Outcome r = view(q(test::dataPath("cube.obj")) + " --levels 3 --size 320x240 --frames 40 --script '" +
                            script("plus.txt", "# one level up\n2 key +\n") + "' --log '" + log + "'");
     expectClean(r);
     const std::vector<std::string> lines = logLines(log);
@@ -166,7 +175,7 @@ TEST_F(View, PlusDoublesTheLoggedFaceCount) {
 
 TEST_F(View, SchemeKeyDrawsBothSchemesSideBySide) {
     const std::string log = temp("both.jsonl"), shot = temp("both.png");
-    const Outcome r = view("'" + test::dataPath("cube.obj") + "' --levels 4 --size 400x200 --no-hud --frames 3 --script '" +
+    const Outcome r = view(q(test::dataPath("cube.obj")) + " --levels 4 --size 400x200 --no-hud --frames 3 --script '" +
                            script("both.txt", "0 key s\n0 key s\n") + "' --log '" + log + "' --screenshot '" + shot + "'");
     expectClean(r);
     const std::vector<std::string> lines = logLines(log);
@@ -177,15 +186,53 @@ TEST_F(View, SchemeKeyDrawsBothSchemesSideBySide) {
     EXPECT_EQ(field(lines[0], "cc_faces"), 6 * 16) << "Catmull-Clark at 2 levels";
     const Image image = readPng(shot);
     ASSERT_EQ(image.width, 400u);
-    EXPECT_GT(drawnPixels(image, 0, 200), 1000u) << "P-S on the left";
+    EXPECT_GT(drawnPixels(image, 0, 200), 300u) << "P-S on the left (the cube shrinks under P-S)";
     EXPECT_GT(drawnPixels(image, 200, 400), 1000u) << "Catmull-Clark on the right";
     fs::remove(log);
     fs::remove(shot);
 }
 
+// Dragging (orbit, pan) and the wheel move the camera; `f` frames the model again exactly as
+// at the start (paused, so the pose is the same).
+TEST_F(View, MouseMovesTheCameraAndFFramesTheModelAgain) {
+    const std::string start = temp("cam0.png"), moved = temp("cam1.png"), framed = temp("cam2.png");
+    const std::string base = q(test::dataPath("spot_control_mesh.obj")) + " --levels 2 --size 240x180 --no-hud --paused --frames 3";
+    const std::string moves = "1 drag left 40 -20\n1 scroll 2\n1 drag right 15 10\n";
+    expectClean(view(base + " --screenshot " + q(start)));
+    expectClean(view(base + " --script " + q(script("cam1.txt", moves)) + " --screenshot " + q(moved)));
+    expectClean(view(base + " --script " + q(script("cam2.txt", moves + "2 key f\n")) + " --screenshot " + q(framed)));
+    const Image a = readPng(start), b = readPng(moved), c = readPng(framed);
+    EXPECT_NE(a.rgba, b.rgba) << "the camera moved";
+    EXPECT_GT(drawnPixels(b, 0, b.width), drawnPixels(a, 0, a.width)) << "zoomed in: the model covers more pixels";
+    EXPECT_EQ(a.rgba, c.rgba) << "f restores the start camera";
+    for (const std::string& path : {start, moved, framed}) fs::remove(path);
+}
+
+// w, space, b and r change what the log reports; b and r pressed together are both applied
+// (the second waits for the first build).
+TEST_F(View, KeysCycleWireframePlaybackBoundaryAndRules) {
+    const std::string log = temp("keys.jsonl");
+    const Outcome r = view(q(test::dataPath("grid4x4.obj")) + " --levels 2 --size 240x180 --frames 40 --script " +
+                           q(script("keys.txt", "1 key w\n2 key w\n3 key w\n4 key space\n5 key b\n5 key r\n")) +
+                           " --log " + q(log));
+    expectClean(r);
+    const std::vector<std::string> lines = logLines(log);
+    ASSERT_EQ(lines.size(), 40u);
+    EXPECT_TRUE(contains(lines[0], "\"wireframe\": \"none\"")) << lines[0];
+    EXPECT_TRUE(contains(lines[1], "\"wireframe\": \"refined\"")) << lines[1];
+    EXPECT_TRUE(contains(lines[2], "\"wireframe\": \"control\"")) << lines[2];
+    EXPECT_TRUE(contains(lines[3], "\"wireframe\": \"none\"")) << lines[3];
+    EXPECT_TRUE(contains(lines[3], "\"playing\": true")) << lines[3];
+    EXPECT_TRUE(contains(lines[4], "\"playing\": false")) << lines[4];
+    EXPECT_TRUE(contains(lines[0], "\"boundary\": \"paper\", \"rules\": \"paper\"")) << lines[0];
+    EXPECT_TRUE(contains(lines.back(), "\"boundary\": \"smooth\", \"rules\": \"robust\"")) << lines.back();
+    EXPECT_GT(field(lines.back(), "ps_faces"), field(lines[0], "ps_faces")) << "smooth splits the boundary edges";
+    fs::remove(log);
+}
+
 TEST_F(View, ResizeDuringPlaybackRedrawsAtTheNewSize) {
     const std::string log = temp("resize.jsonl"), shot = temp("resize.png");
-    const Outcome r = view("'" + test::dataPath("spot_control_mesh.obj") + "' --levels 2 --size 320x240 --frames 10 "
+    const Outcome r = view(q(test::dataPath("spot_control_mesh.obj")) + " --levels 2 --size 320x240 --frames 10 "
                            "--script '" + script("resize.txt", "5 resize 400 300\n") + "' --log '" + log +
                            "' --screenshot '" + shot + "'");
     expectClean(r);
@@ -205,7 +252,7 @@ TEST_F(View, ResizeDuringPlaybackRedrawsAtTheNewSize) {
 
 TEST_F(View, ThreeHundredFramesOfAGltfClipKeepResidentMemory) {
     const std::string log = temp("life.jsonl");
-    const Outcome r = view("'" + test::dataPath("two_bone_cylinder.glb") + "' --levels 3 --size 320x240 --no-vsync "
+    const Outcome r = view(q(test::dataPath("two_bone_cylinder.glb")) + " --levels 3 --size 320x240 --no-vsync "
                            "--frames 300 --log '" + log + "'");
     expectClean(r);
     const std::vector<std::string> lines = logLines(log);
@@ -225,18 +272,19 @@ TEST_F(View, ErrorsAreClearWithTheDocumentedStatus) {
     EXPECT_TRUE(contains(r.err, bad)) << r.err;
     fs::remove(bad);
 
-    r = run("env -u DISPLAY -u WAYLAND_DISPLAY", "view '" + test::dataPath("cube.obj") + "' --frames 1");
+    const std::string cube = q(test::dataPath("cube.obj"));
+    r = run("env -u DISPLAY -u WAYLAND_DISPLAY", "view " + cube + " --frames 1");
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(r.err, "$DISPLAY")) << r.err;
     EXPECT_TRUE(contains(r.err, "xvfb-run")) << r.err;
     EXPECT_TRUE(contains(r.err, "psub play --render")) << r.err;
 
     const std::string keys = script("badkey.txt", "0 key s\n3 key q\n");
-    r = view("'" + test::dataPath("cube.obj") + "' --frames 5 --script '" + keys + "'");
+    r = view(q(test::dataPath("cube.obj")) + " --frames 5 --script '" + keys + "'");
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(r.err, keys + ":2: unknown key 'q'")) << r.err;
 
-    r = view("'" + test::dataPath("cube.obj") + "' --screenshot x.png");
+    r = view(q(test::dataPath("cube.obj")) + " --screenshot x.png");
     EXPECT_EQ(r.status, 2) << "--screenshot without --frames is a usage error: " << r.err;
 }
 
