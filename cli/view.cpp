@@ -248,7 +248,7 @@ struct Viewer {
     bool drawingDirty = true;  // renderers to re-create (level, scheme, wireframe, size)
     double seconds = 0;        // animation time
     std::array<double, kStageCount> stage{};
-    double fps = 0;
+    double fps = 0, frameMs = 0;  // frames per second over the last second; wall time of the last frame
     std::string notice;  // shown in the HUD (refused level, build in progress)
     bool leftDown = false, rightDown = false;
     double cursorX = 0, cursorY = 0;
@@ -464,14 +464,14 @@ void Viewer::writeLog(int index) {
                  "{\"frame\": %d, \"level\": %d, \"cc_level\": %d, \"scheme\": \"%s\", \"refined_faces\": %llu, "
                  "\"ps_faces\": %llu, \"cc_faces\": %llu, \"drawn\": [%s%s%s], \"width\": %u, \"height\": %u, "
                  "\"wireframe\": \"%s\", \"playing\": %s, \"boundary\": \"%s\", \"rules\": \"%s\", \"rss_kib\": %ld, "
-                 "\"validation_messages\": %llu, \"stages\": {",
+                 "\"validation_messages\": %llu, \"frame_ms\": %.4f, \"stages\": {",
                  index, levels, built->ccLevels, kSchemeNames[scheme],
                  (unsigned long long)(showsPs() ? psFaces() : ccFaces()), (unsigned long long)psFaces(),
                  (unsigned long long)ccFaces(), showsPs() ? "\"ps\"" : "", scheme == 2 ? ", " : "",
                  showsCc() ? "\"cc\"" : "", width, height, kWireframeNames[wireframe],
                  playing ? "true" : "false", boundary == Boundary::Paper ? "paper" : "smooth",
                  rules == Rules::Paper ? "paper" : "robust", residentKiB(),
-                 (unsigned long long)context->validationMessageCount());
+                 (unsigned long long)context->validationMessageCount(), frameMs);
     for (int s = 0; s < kStageCount; ++s)
         std::fprintf(log, "%s\"%s_ms\": %.4f", s ? ", " : "", kStageNames[std::size_t(s)], stage[std::size_t(s)]);
     std::fprintf(log, "}}\n");
@@ -543,7 +543,7 @@ GLFWwindow* openWindow(const ViewOptions& o) {
 int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
     const ViewOptions& o = v.o;
     std::size_t next = 0;
-    Clock::time_point last = Clock::now(), fpsStart = last;
+    Clock::time_point last = Clock::now(), fpsStart = last, firstDrawn = last;
     int fpsFrames = 0, drawn = 0;
     for (int index = 0; !v.quit && !glfwWindowShouldClose(v.window); ++index) {
         glfwPollEvents();
@@ -586,9 +586,10 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
             --index;
             continue;
         }
-        v.writeLog(index);
-        ++drawn;
         const Clock::time_point now = Clock::now();
+        v.frameMs = msBetween(last, now);
+        v.writeLog(index);
+        if (++drawn == 1) firstDrawn = now;
         if (v.playing) v.seconds += msBetween(last, now) / 1000.0;
         last = now;
         ++fpsFrames;
@@ -608,7 +609,9 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
         }
         writePng(o.screenshot, v.presenter->screenshot());
     }
-    std::printf("psub view: %d frames drawn; %.1f fps over the last second; present mode %s\n", drawn, v.fps,
+    const double seconds = msBetween(firstDrawn, Clock::now()) / 1000.0;
+    std::printf("psub view: %d frames drawn; %.2f fps after the first frame (%d frames in %.2f s); present mode %s\n",
+                drawn, drawn > 1 && seconds > 0 ? (drawn - 1) / seconds : 0.0, drawn - 1, seconds,
                 v.presenter->presentMode());
     return 0;
 }
@@ -692,7 +695,8 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
         ->needs(frames);
     vi->add_option("--log", o.log,
                    "write one JSON line per frame: frame, level, cc_level, scheme, refined_faces, ps_faces, cc_faces, "
-                   "drawn, width, height, wireframe, playing, boundary, rules, rss_kib, validation_messages, "
+                   "drawn, width, height, wireframe, playing, boundary, rules, rss_kib, validation_messages, frame_ms "
+                   "(wall time since the last frame), "
                    "stages.{deform,upload,evaluate,normals,render,readback,present}_ms");
     vi->footer(
         "Mouse: left drag orbits, right drag pans, the wheel zooms. Keys: + / - level (tables built in the\n"
