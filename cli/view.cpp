@@ -1,6 +1,6 @@
 // psub view: the interactive window. Per frame: script events and window input, pose the
 // control points (wall-clock time, looping), evaluate P-S (CPU or Vulkan) and/or OpenSubdiv's
-// Catmull-Clark (CPU), draw each with psub::Renderer into the frame picture, HUD and help as
+// Catmull-Clark (its stencil table, CPU), draw each with psub::Renderer into the frame picture, HUD and help as
 // captions, present through psub::Presenter. Tables for a new level, boundary or rules are
 // built by std::async while the old ones keep drawing.
 #include "view.h"
@@ -128,7 +128,8 @@ struct Built {
     Rules rules = Rules::Paper;
     Boundary boundary = Boundary::Paper;
     Refinement ps;
-    SurfaceTable cc;  // OpenSubdiv's faces at ccLevels
+    std::unique_ptr<CatmarkStencils> ccStencils;  // OpenSubdiv: control points -> level ccLevels
+    SurfaceTable cc;                              // its faces
     PerLevelTable ccIdentity;  // no levels over cc's vertices: for its normals
     FactorizedTable none;      // the evaluators keep references to their tables
     std::string error;  // set when the level was refused
@@ -152,9 +153,8 @@ Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary)
     RefineOptions options;
     options.levels = levels, options.rules = rules, options.boundary = boundary;
     b.ps = refine(mesh, connectivity, options);
-    const std::vector<double> rest(a.rest.begin(), a.rest.end());
-    std::vector<CatmarkLevel> cc = refineCatmark(mesh.faces, rest, b.ccLevels, false);
-    b.cc = buildSurfaceTable(std::move(cc.back().faces));
+    b.ccStencils = std::make_unique<CatmarkStencils>(mesh.faces, b.ccLevels);
+    b.cc = buildSurfaceTable(b.ccStencils->finestFaces());
     b.ccIdentity.controlCount = b.cc.vertexCount;
     return b;
 }
@@ -242,7 +242,6 @@ struct Viewer {
     std::unique_ptr<VulkanEvaluator> gpu;
     Side ps, cc;
     std::vector<float> control;
-    std::vector<double> controlDouble;
     Image frame;
     Orbit orbit;
     bool drawingDirty = true;  // renderers to re-create (level, scheme, wireframe, size)
@@ -375,9 +374,7 @@ void Viewer::evaluate() {
     }
     if (showsCc()) {  // OpenSubdiv on the CPU, whatever the backend
         const Clock::time_point ccStart = Clock::now();
-        controlDouble.assign(control.begin(), control.end());
-        std::vector<CatmarkLevel> refined = refineCatmark(animated.mesh.faces, controlDouble, built->ccLevels);
-        std::copy(refined.back().positions.begin(), refined.back().positions.end(), cc.positions.begin());
+        built->ccStencils->evaluate(control, cc.positions);
         const Clock::time_point evaluated = Clock::now();
         ccNormals->normals(cc.positions, cc.normals);
         stage[Evaluate] += msBetween(ccStart, evaluated);
