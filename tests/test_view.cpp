@@ -153,6 +153,18 @@ TEST_F(View, StartFrameWithoutHudMatchesPsubRender) {
     const double pixels = double(a.width) * a.height;
     for (int c = 0; c < 3; ++c) EXPECT_LE(sum[c] / pixels, 2.0) << "channel " << c;
     EXPECT_LE(double(off), 0.01 * pixels);
+    // With the HUD: text in the top-left corner, where the picture alone is background.
+    const Outcome withHud = view(q(model) + " --levels 3 --anim twist --size 320x240 --frames 1 --screenshot " + q(shot));
+    expectClean(withHud);
+    const Image hud = readPng(shot);
+    std::size_t dark = 0, darkBefore = 0;
+    for (std::uint32_t y = 0; y < 20; ++y)
+        for (std::uint32_t x = 0; x < 150; ++x) {
+            dark += hud.pixel(x, y).r < 100;
+            darkBefore += a.pixel(x, y).r < 100;
+        }
+    EXPECT_EQ(darkBefore, 0u);
+    EXPECT_GT(dark, 50u) << "HUD text";
     fs::remove(shot);
     fs::remove(still);
 }
