@@ -9,6 +9,9 @@
 #include "figure5.h"
 #include "render.h"
 #endif
+#if PSUB_HAVE_VIEW
+#include "view.h"
+#endif
 
 #include <CLI/CLI.hpp>
 
@@ -239,6 +242,10 @@ int main(int argc, char** argv) {
     Figure5Options figure5Options;
     CLI::App* fi = addFigure5Command(app, figure5Options);
 #endif
+#if PSUB_HAVE_VIEW
+    ViewOptions viewOptions;
+    CLI::App* vi = addViewCommand(app, viewOptions);
+#endif
 
     try {
         app.parse(argc, argv);
@@ -275,6 +282,9 @@ int main(int argc, char** argv) {
 #if PSUB_HAVE_RENDER
         if (re->parsed()) return runRender(renderOptions);
         if (fi->parsed()) return runFigure5(figure5Options);
+#endif
+#if PSUB_HAVE_VIEW
+        if (vi->parsed()) return runView(viewOptions);
 #endif
         if (be->parsed()) {
             benchOptions.dataDir = dataDir();

@@ -42,28 +42,6 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
 // Beyond this many refined faces playback is refused (memory; nobody plays it in real time).
 constexpr std::uint64_t kMaxFaces = 64ull << 20;
 
-// ---------------------------------------------------------------------------------------
-// The animated control mesh
-
-struct Animated {
-    Mesh mesh;
-    CheckedMesh checked;
-    std::unique_ptr<GltfAsset> asset;  // the player keeps a reference: heap, never moved
-    std::unique_ptr<GltfPlayer> player;
-    std::size_t clip = 0;
-    std::optional<Procedural> procedural;
-    RestBounds bounds;
-    std::vector<float> rest;  // the pose procedural deformers start from
-    std::string name;         // what plays, for the report
-    double period = kProceduralPeriod;
-
-    // The control points at `seconds`; allocates nothing.
-    void pose(double seconds, std::span<float> out) {
-        if (procedural) deformProcedural(*procedural, bounds, rest, seconds, out);
-        else player->pose(clip, seconds, out);
-    }
-};
-
 bool isGltf(const std::string& path) {
     const std::string extension = std::filesystem::path(path).extension().string();
     return extension == ".gltf" || extension == ".glb" || extension == ".GLTF" || extension == ".GLB";
@@ -78,6 +56,8 @@ std::string clipList(const GltfAsset& asset) {
     for (const GltfClip& clip : asset.clips) names += (names.empty() ? "'" : ", '") + clip.name + "'";
     return names.empty() ? "none" : names;
 }
+
+}  // namespace
 
 Animated loadAnimated(const PlayOptions& o) {
     Animated a;
@@ -118,6 +98,8 @@ Animated loadAnimated(const PlayOptions& o) {
     a.bounds = restBounds(a.rest);
     return a;
 }
+
+namespace {
 
 // ---------------------------------------------------------------------------------------
 // Per-stage timing

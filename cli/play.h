@@ -5,8 +5,15 @@
 
 #include "commands.h"
 
+#include "psub/animation.h"
+#include "psub/topology.h"
+
 #include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
 #include <string>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -30,6 +37,30 @@ struct PlayOptions {
     bool verify = false;        // compare each frame with the rule oracle from scratch
     bool json = false;
 };
+
+// The animated control mesh (also psub view's).
+struct Animated {
+    Mesh mesh;
+    CheckedMesh checked;
+    std::unique_ptr<GltfAsset> asset;  // the player keeps a reference: heap, never moved
+    std::unique_ptr<GltfPlayer> player;
+    std::size_t clip = 0;
+    std::optional<Procedural> procedural;
+    RestBounds bounds;
+    std::vector<float> rest;  // the pose procedural deformers start from
+    std::string name;         // what plays, for the report
+    double period = kProceduralPeriod;
+
+    // The control points at `seconds`; allocates nothing.
+    void pose(double seconds, std::span<float> out) {
+        if (procedural) deformProcedural(*procedural, bounds, rest, seconds, out);
+        else player->pose(clip, seconds, out);
+    }
+};
+
+// Loads options.input (OBJ or glTF) and the animation options.animation names (empty: a glTF
+// file's first clip, else wave), checked; warnings on stderr. Bad input throws InputError.
+Animated loadAnimated(const PlayOptions& options);
 
 // Adds `psub play` to `app`, parsing into `options`; returns the subcommand.
 CLI::App* addPlayCommand(CLI::App& app, PlayOptions& options);

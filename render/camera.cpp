@@ -33,6 +33,27 @@ void Box::extend(std::span<const float> xyz) {
         }
 }
 
+Camera lookAt(std::array<float, 3> eyeAt, std::array<float, 3> targetAt, float radius, float aspect) {
+    if (!(aspect > 0) || !std::isfinite(aspect)) throw std::invalid_argument("lookAt: aspect must be positive");
+    const glm::vec3 eye(eyeAt[0], eyeAt[1], eyeAt[2]), centre(targetAt[0], targetAt[1], targetAt[2]);
+    const float distance = glm::length(eye - centre);
+    if (!(distance > 0) || !std::isfinite(distance)) throw std::invalid_argument("lookAt: the eye must not be the target");
+    const float halfY = glm::radians(kFovYDegrees) / 2;
+    const glm::mat4 view = glm::lookAtRH(eye, centre, glm::vec3(0, 1, 0));
+    const float nearPlane = std::max(distance - 1.05f * radius, distance * 1e-3f);
+    const float farPlane = distance + 1.05f * radius;
+    glm::mat4 projection = glm::perspectiveRH_ZO(2 * halfY, aspect, nearPlane, farPlane);
+    projection[1][1] *= -1;  // Vulkan's framebuffer y points down
+    Camera camera;
+    camera.view = toArray(view);
+    camera.projection = toArray(projection);
+    camera.viewProjection = toArray(projection * view);
+    camera.eye = eyeAt;
+    camera.target = targetAt;
+    camera.verticalFovDegrees = kFovYDegrees;
+    return camera;
+}
+
 Camera frameBox(std::array<float, 3> min, std::array<float, 3> max, float aspect, std::array<float, 3> towardsEye) {
     if (!(aspect > 0) || !std::isfinite(aspect)) throw std::invalid_argument("frameBox: aspect must be positive");
     const glm::vec3 direction(towardsEye[0], towardsEye[1], towardsEye[2]);
@@ -51,19 +72,7 @@ Camera frameBox(std::array<float, 3> min, std::array<float, 3> max, float aspect
     const float halfNarrow = std::min(halfY, std::atan(aspect * std::tan(halfY)));
     const float distance = radius / std::sin(halfNarrow);
     const glm::vec3 eye = centre + distance * glm::normalize(direction);
-    const glm::mat4 view = glm::lookAtRH(eye, centre, glm::vec3(0, 1, 0));
-    const float nearPlane = std::max(distance - 1.05f * radius, distance * 1e-3f);
-    const float farPlane = distance + 1.05f * radius;
-    glm::mat4 projection = glm::perspectiveRH_ZO(2 * halfY, aspect, nearPlane, farPlane);
-    projection[1][1] *= -1;  // Vulkan's framebuffer y points down
-    Camera camera;
-    camera.view = toArray(view);
-    camera.projection = toArray(projection);
-    camera.viewProjection = toArray(projection * view);
-    camera.eye = {eye.x, eye.y, eye.z};
-    camera.target = {centre.x, centre.y, centre.z};
-    camera.verticalFovDegrees = kFovYDegrees;
-    return camera;
+    return lookAt({eye.x, eye.y, eye.z}, {centre.x, centre.y, centre.z}, radius, aspect);
 }
 
 }  // namespace psub

@@ -2,15 +2,28 @@
 #include "psub/catmark.h"
 
 #include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/stencilTable.h>
+#include <opensubdiv/far/stencilTableFactory.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 #include <opensubdiv/far/topologyRefinerFactory.h>
 
+#include <algorithm>
+#include <cassert>
 #include <memory>
 
 namespace psub {
 namespace {
 
 using namespace OpenSubdiv;
+
+struct Point3f {  // a float xyz primvar, laid out as 3 packed floats
+    float p[3];
+    void Clear() { p[0] = p[1] = p[2] = 0; }
+    void AddWithWeight(const Point3f& src, float weight) {
+        for (int i = 0; i < 3; ++i) p[i] += weight * src.p[i];
+    }
+};
+static_assert(sizeof(Point3f) == 12);
 
 struct Point3 {
     double p[3];
@@ -81,6 +94,40 @@ std::vector<CatmarkLevel> refineCatmark(const Faces& faces, std::span<const doub
         current = std::move(child);
     }
     return out;
+}
+
+struct CatmarkStencils::Impl {
+    int levels = 0;
+    Faces finest;
+    std::unique_ptr<const Far::StencilTable> table;  // null for 0 levels (the identity)
+};
+
+CatmarkStencils::CatmarkStencils(const Faces& faces, int levels) : impl_(std::make_unique<Impl>()) {
+    std::unique_ptr<Far::TopologyRefiner> refiner = makeRefiner(faces);
+    Far::TopologyRefiner::UniformOptions uniform(levels);
+    uniform.fullTopologyInLastLevel = true;
+    refiner->RefineUniform(uniform);
+    impl_->levels = levels;
+    impl_->finest = readLevel(refiner->GetLevel(levels)).faces;
+    if (levels == 0) return;
+    Far::StencilTableFactory::Options options;
+    options.generateIntermediateLevels = false;  // the finest level only, factorized from the control points
+    options.generateOffsets = true;
+    impl_->table.reset(Far::StencilTableFactory::Create(*refiner, options));
+}
+
+CatmarkStencils::~CatmarkStencils() = default;
+
+const Faces& CatmarkStencils::finestFaces() const { return impl_->finest; }
+std::uint32_t CatmarkStencils::refinedCount() const { return impl_->finest.vertexCount; }
+
+void CatmarkStencils::evaluate(std::span<const float> control, std::span<float> refined) const {
+    assert(refined.size() >= 3 * std::size_t(refinedCount()));
+    if (!impl_->table) {
+        std::copy_n(control.begin(), std::min(control.size(), refined.size()), refined.begin());
+        return;
+    }
+    impl_->table->UpdateValues(reinterpret_cast<const Point3f*>(control.data()), reinterpret_cast<Point3f*>(refined.data()));
 }
 
 }  // namespace psub

@@ -147,3 +147,32 @@ TEST(Catmark, SmoothBoundaryAfterOddStepsIsAlreadyCatmullClarksPolyline) {
 
 }  // namespace
 }  // namespace psub
+
+namespace psub {
+namespace {
+
+// The playback stencils give refineCatmark's finest faces and positions (float rounding), on a
+// closed mesh, one with a boundary and one with triangles; 0 levels is the identity.
+TEST(CatmarkStencils, EqualRefineCatmarkOnTheFinestLevel) {
+    for (const char* name : {"cube.obj", "grid4x4.obj", "cow.obj"}) {
+        const test::Loaded loaded = test::load(test::dataPath(name));
+        for (int levels : {0, 1, 2}) {
+            const CatmarkStencils stencils(loaded.mesh.faces, levels);
+            const std::vector<CatmarkLevel> reference = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, levels);
+            const CatmarkLevel& finest = reference.back();
+            ASSERT_EQ(stencils.refinedCount(), finest.faces.vertexCount) << name << " " << levels;
+            EXPECT_EQ(stencils.finestFaces().offsets, finest.faces.offsets) << name << " " << levels;
+            EXPECT_EQ(stencils.finestFaces().verts, finest.faces.verts) << name << " " << levels;
+            const std::vector<float> control(loaded.mesh.positions.begin(), loaded.mesh.positions.end());
+            std::vector<float> refined(3 * std::size_t(stencils.refinedCount()), -1.0f);
+            stencils.evaluate(control, refined);
+            double worst = 0;
+            for (std::size_t i = 0; i < refined.size(); ++i)
+                worst = std::max(worst, std::abs(double(refined[i]) - finest.positions[i]));
+            EXPECT_LT(worst, 1e-4) << name << " " << levels;
+        }
+    }
+}
+
+}  // namespace
+}  // namespace psub

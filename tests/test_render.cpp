@@ -388,6 +388,28 @@ TEST(RenderCamera, FramesEveryCornerOfTheBox) {
     }
 }
 
+// lookAt (the viewer's orbit camera): the target lands at the image centre from any eye, and
+// frameBox's own eye and target give frameBox's matrices.
+TEST(RenderCamera, LookAtCentresTheTargetAndReproducesFrameBox) {
+    const std::array<float, 3> lo{-1, -2, 0.5f}, hi{3, 1, 2};
+    const Camera framed = frameBox(lo, hi, 1.5f);
+    const float radius = 0.5f * std::sqrt(16.0f + 9.0f + 2.25f) * 1.04f;
+    const Camera again = lookAt(framed.eye, framed.target, radius, 1.5f);
+    for (int i = 0; i < 16; ++i) EXPECT_NEAR(again.viewProjection[i], framed.viewProjection[i], 1e-4f) << i;
+    for (const std::array<float, 3> eye : {std::array<float, 3>{5, 1, 2}, {-3, 4, -6}, {1, -5, 0.5f}}) {
+        const Camera camera = lookAt(eye, {1, 0, 1}, 2.0f, 1.5f);
+        const float target[3] = {1, 0, 1};
+        const auto c = clip(camera.viewProjection, target);
+        ASSERT_GT(c[3], 0);
+        EXPECT_NEAR(c[0] / c[3], 0.0, 1e-5);
+        EXPECT_NEAR(c[1] / c[3], 0.0, 1e-5);
+        EXPECT_GT(c[2] / c[3], 0.0);
+        EXPECT_LT(c[2] / c[3], 1.0);
+    }
+    EXPECT_THROW(lookAt({1, 1, 1}, {1, 1, 1}, 1.0f, 1.0f), std::invalid_argument) << "eye at the target";
+    EXPECT_THROW(lookAt({0, 0, 5}, {0, 0, 0}, 1.0f, 0.0f), std::invalid_argument);
+}
+
 TEST(RenderCamera, LooksAlongAnotherDirectionWhenAsked) {
     const std::array<float, 3> lo{-1, -1, -1}, hi{1, 1, 1};
     const Camera camera = frameBox(lo, hi, 1.0f, {-2, 0, 0});

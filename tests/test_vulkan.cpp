@@ -433,6 +433,54 @@ TEST_F(Vulkan, ADeviceThatIsNotThereIsAClearError) {
     EXPECT_FALSE(listVulkanDevices().empty());
 }
 
+// The window options (VulkanOptions): extra instance and device extensions are enabled, a
+// missing one is named, and only queue families that pass the filter are chosen.
+TEST_F(Vulkan, WindowOptionsEnableExtensionsAndFilterQueueFamilies) {
+    VulkanOptions missing;
+    missing.validation = Validation::Off;
+    missing.instanceExtensions = {"VK_PSUB_no_such_extension"};
+    try {
+        VulkanContext made(missing);
+        ADD_FAILURE() << "an unknown instance extension was accepted";
+    } catch (const VulkanError& e) {
+        EXPECT_NE(std::string(e.what()).find("VK_PSUB_no_such_extension"), std::string::npos) << e.what();
+    }
+    VulkanOptions noDeviceExtension;
+    noDeviceExtension.validation = Validation::Off;
+    noDeviceExtension.deviceExtensions = {"VK_PSUB_no_such_device_extension"};
+    try {
+        VulkanContext made(noDeviceExtension);
+        ADD_FAILURE() << "a device without the asked extension was chosen";
+    } catch (const VulkanError& e) {
+        EXPECT_NE(std::string(e.what()).find("no VK_PSUB_no_such_device_extension"), std::string::npos) << e.what();
+    }
+    VulkanOptions none;
+    none.validation = Validation::Off;
+    none.queueFamilyFilter = [](void*, void*, std::uint32_t) { return false; };
+    try {
+        VulkanContext made(none);
+        ADD_FAILURE() << "a queue family that fails the filter was chosen";
+    } catch (const VulkanError& e) {
+        EXPECT_NE(std::string(e.what()).find("no compute queue that can present"), std::string::npos) << e.what();
+    }
+    // The filter is asked with the context's own instance; the surface and swapchain
+    // extensions are there on lavapipe and on every GPU driver.
+    VulkanOptions window = validated();
+    window.instanceExtensions = {"VK_KHR_surface"};
+    window.deviceExtensions = {"VK_KHR_swapchain"};
+    int calls = 0;
+    void* instanceSeen = nullptr;
+    window.queueFamilyFilter = [&](void* instance, void* physical, std::uint32_t) {
+        instanceSeen = instance;
+        ++calls;
+        return physical != nullptr;
+    };
+    VulkanContext made(window);
+    EXPECT_GT(calls, 0);
+    EXPECT_EQ(instanceSeen, static_cast<void*>(made.impl().instance));
+    EXPECT_EQ(made.validationMessageCount(), 0u) << made.lastValidationMessage();
+}
+
 // Resident memory after glibc hands its free pages back (malloc_trim), so that the heap's
 // reuse pattern is not mistaken for growth.
 long residentKiB() {

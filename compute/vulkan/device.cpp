@@ -106,8 +106,17 @@ VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT 
     return VK_FALSE;
 }
 
+bool instanceExtensionInstalled(const std::string& name) {
+    std::uint32_t count = 0;
+    if (vkEnumerateInstanceExtensionProperties(nullptr, &count, nullptr) != VK_SUCCESS) return false;
+    std::vector<VkExtensionProperties> extensions(count);
+    if (vkEnumerateInstanceExtensionProperties(nullptr, &count, extensions.data()) != VK_SUCCESS) return false;
+    return std::any_of(extensions.begin(), extensions.end(),
+                       [&](const VkExtensionProperties& e) { return name == e.extensionName; });
+}
+
 VkInstance createInstance(bool validation, bool synchronization, VulkanContext::Impl* messengerOwner,
-                          VkDebugUtilsMessengerEXT* messenger) {
+                          VkDebugUtilsMessengerEXT* messenger, const std::vector<std::string>& extra = {}) {
     VkApplicationInfo app{};
     app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
     app.pApplicationName = "psub";
@@ -117,7 +126,15 @@ VkInstance createInstance(bool validation, bool synchronization, VulkanContext::
     info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
     info.pApplicationInfo = &app;
     const char* layers[] = {kValidationLayer};
-    const char* extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    std::vector<const char*> extensions;
+    for (const std::string& name : extra) {
+        if (!instanceExtensionInstalled(name))
+            throw VulkanError("the Vulkan instance extension " + name + " is not available");
+        extensions.push_back(name.c_str());
+    }
+    if (validation) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    info.enabledExtensionCount = std::uint32_t(extensions.size());
+    info.ppEnabledExtensionNames = extensions.data();
     VkDebugUtilsMessengerCreateInfoEXT messengerInfo{};
     messengerInfo.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
     messengerInfo.messageSeverity =
@@ -136,8 +153,6 @@ VkInstance createInstance(bool validation, bool synchronization, VulkanContext::
     if (validation) {
         info.enabledLayerCount = 1;
         info.ppEnabledLayerNames = layers;
-        info.enabledExtensionCount = 1;
-        info.ppEnabledExtensionNames = extensions;
         features.pNext = &messengerInfo;  // also reports on instance creation and destruction
         info.pNext = &features;
     }
@@ -168,7 +183,27 @@ struct Candidate {
     VkDeviceSize localBytes = 0;
 };
 
-Candidate examine(VkPhysicalDevice device) {
+// What a window needs of a device (VulkanOptions): empty filter and list accept every device.
+struct PresentNeeds {
+    VkInstance instance = VK_NULL_HANDLE;
+    const std::vector<std::string>* deviceExtensions = nullptr;
+    const std::function<bool(void*, void*, std::uint32_t)>* filter = nullptr;
+};
+
+// The first of `names` the device lacks, or empty.
+std::string missingDeviceExtension(VkPhysicalDevice device, const std::vector<std::string>& names) {
+    std::uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(device, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> extensions(count);
+    vkEnumerateDeviceExtensionProperties(device, nullptr, &count, extensions.data());
+    for (const std::string& name : names)
+        if (std::none_of(extensions.begin(), extensions.end(),
+                         [&](const VkExtensionProperties& e) { return name == e.extensionName; }))
+            return name;
+    return {};
+}
+
+Candidate examine(VkPhysicalDevice device, const PresentNeeds& needs) {
     Candidate c;
     c.device = device;
     vkGetPhysicalDeviceProperties(device, &c.properties);
@@ -181,6 +216,7 @@ Candidate examine(VkPhysicalDevice device) {
     int best = -1;
     for (std::uint32_t i = 0; i < count; ++i) {
         if (!(families[i].queueFlags & VK_QUEUE_COMPUTE_BIT) || families[i].queueCount == 0) continue;
+        if (needs.filter && *needs.filter && !(*needs.filter)(needs.instance, device, i)) continue;
         const int score = (families[i].timestampValidBits > 0 ? 2 : 0) + (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT ? 1 : 0);
         if (score > best) best = score, c.family = i, c.timestampBits = families[i].timestampValidBits;
     }
@@ -190,12 +226,16 @@ Candidate examine(VkPhysicalDevice device) {
         if (memory.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) c.localBytes += memory.memoryHeaps[h].size;
     const VkPhysicalDeviceLimits& limits = c.properties.limits;
     if (c.properties.apiVersion < VK_API_VERSION_1_1) c.why = "Vulkan 1.1 not supported";
-    else if (c.family == ~0u) c.why = "no compute queue";
+    else if (c.family == ~0u) c.why = needs.filter && *needs.filter ? "no compute queue that can present" : "no compute queue";
     else if (limits.maxPerStageDescriptorStorageBuffers < vulkan::uint(PSUB_BINDING_COUNT))
         c.why = "fewer than " + std::to_string(PSUB_BINDING_COUNT) + " storage buffers per stage";
     else if (limits.maxComputeWorkGroupSize[0] < vulkan::uint(PSUB_WORKGROUP_SIZE) ||
              limits.maxComputeWorkGroupInvocations < vulkan::uint(PSUB_WORKGROUP_SIZE))
         c.why = "workgroups of " + std::to_string(PSUB_WORKGROUP_SIZE) + " not supported";
+    else if (needs.deviceExtensions) {
+        const std::string missing = missingDeviceExtension(device, *needs.deviceExtensions);
+        if (!missing.empty()) c.why = "no " + missing;
+    }
     return c;
 }
 
@@ -210,14 +250,14 @@ std::string lower(std::string text) {
     return text;
 }
 
-std::vector<Candidate> candidates(VkInstance instance) {
+std::vector<Candidate> candidates(VkInstance instance, const PresentNeeds& needs = {}) {
     std::uint32_t count = 0;
     VK_CHECK(vkEnumeratePhysicalDevices(instance, &count, nullptr));
     std::vector<VkPhysicalDevice> devices(count);
     VK_CHECK(vkEnumeratePhysicalDevices(instance, &count, devices.data()));
     devices.resize(count);
     std::vector<Candidate> list;
-    for (VkPhysicalDevice d : devices) list.push_back(examine(d));
+    for (VkPhysicalDevice d : devices) list.push_back(examine(d, needs));
     return list;
 }
 
@@ -303,9 +343,10 @@ VulkanContext::VulkanContext(const VulkanOptions& options) : impl_(std::make_uni
     }
     c.validation = validation;
     c.instance = createInstance(validation, options.synchronizationValidation || envFlag("PSUB_VULKAN_SYNC_VALIDATION"),
-                                &c, &c.messenger);
+                                &c, &c.messenger, options.instanceExtensions);
 
-    const std::vector<Candidate> list = candidates(c.instance);
+    const std::vector<Candidate> list =
+        candidates(c.instance, {c.instance, &options.deviceExtensions, &options.queueFamilyFilter});
     const char* env = std::getenv("PSUB_VULKAN_DEVICE");
     const std::string selector = !options.device.empty() ? options.device : env ? env : "";
     const std::size_t pick = choose(list, selector, !options.device.empty() ? "device" : "PSUB_VULKAN_DEVICE");
@@ -337,6 +378,10 @@ VulkanContext::VulkanContext(const VulkanOptions& options) : impl_(std::make_uni
     deviceInfo.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     deviceInfo.queueCreateInfoCount = 1;
     deviceInfo.pQueueCreateInfos = &queueInfo;
+    std::vector<const char*> deviceExtensions;
+    for (const std::string& name : options.deviceExtensions) deviceExtensions.push_back(name.c_str());
+    deviceInfo.enabledExtensionCount = std::uint32_t(deviceExtensions.size());
+    deviceInfo.ppEnabledExtensionNames = deviceExtensions.data();
     VK_CHECK(vkCreateDevice(c.physical, &deviceInfo, nullptr, &c.device));
     vkGetDeviceQueue(c.device, c.queueFamily, 0, &c.queue);
     c.pipelines = std::make_unique<vulkan::Pipelines>(c.device);

@@ -50,6 +50,11 @@ inline Camera frameBox(const Box& box, float aspect, std::array<float, 3> toward
     return frameBox(box.min, box.max, aspect, towardsEye);
 }
 
+// A camera at `eye` looking at `target`, y up, with frameBox's field of view; the near and far
+// planes hold the sphere of `radius` around `target` (for interactive orbit, zoom and pan).
+// frameBox(...) is lookAt(its eye, the box centre, the framed radius, aspect).
+Camera lookAt(std::array<float, 3> eye, std::array<float, 3> target, float radius, float aspect);
+
 // Polygons as CSR arrays: face f has the corners verts[offsets[f] .. offsets[f + 1]),
 // counter-clockwise; corners index vertices 0 .. vertexCount - 1. Faces with fewer than 3
 // corners are skipped. The arrays need only live through the renderer's constructor.

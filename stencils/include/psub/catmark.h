@@ -5,6 +5,8 @@
 
 #include "psub/topology.h"
 
+#include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -20,5 +22,25 @@ struct CatmarkLevel {
 // only topology is refined (for counts).
 std::vector<CatmarkLevel> refineCatmark(const Faces& faces, std::span<const double> positions,
                                         int levels, bool withPositions = true);
+
+// OpenSubdiv's Catmull-Clark for playback: a stencil table from the control points straight
+// to level `levels` (Far::StencilTableFactory, float weights), built once; evaluate() runs it
+// and allocates nothing. The finest level's faces and vertex order are refineCatmark's.
+class CatmarkStencils {
+public:
+    CatmarkStencils(const Faces& faces, int levels);  // a validated mesh; InputError otherwise
+    ~CatmarkStencils();
+    CatmarkStencils(const CatmarkStencils&) = delete;
+    CatmarkStencils& operator=(const CatmarkStencils&) = delete;
+
+    const Faces& finestFaces() const;
+    std::uint32_t refinedCount() const;
+    // control: 3 floats per control vertex; refined: 3 * refinedCount() floats.
+    void evaluate(std::span<const float> control, std::span<float> refined) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace psub

@@ -11,6 +11,7 @@
 #include "psub/tables.h"
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <stdexcept>
@@ -45,6 +46,14 @@ struct VulkanOptions {
     // $PSUB_VULKAN_SYNC_VALIDATION=1. Off by default: Debian's layer (1.3.239) leaks memory
     // with it (KhronosGroup/Vulkan-ValidationLayers#6033), which LeakSanitizer reports.
     bool synchronizationValidation = false;
+    // For presenting to a window: instance extensions enabled besides the context's own (such
+    // as GLFW's surface extensions), device extensions every usable device must have (such as
+    // VK_KHR_swapchain), and a test each queue family must pass to be chosen, called with the
+    // VkInstance, the VkPhysicalDevice and the family index (handles as opaque pointers). A
+    // missing instance extension throws VulkanError naming it; a device without the device
+    // extensions or a passing family is unusable (listed with the reason).
+    std::vector<std::string> instanceExtensions{}, deviceExtensions{};
+    std::function<bool(void* instance, void* physicalDevice, std::uint32_t family)> queueFamilyFilter{};
 };
 
 // One device and its compute queue, shared by evaluators (which must not outlive it).

@@ -1,0 +1,739 @@
+// psub view: the interactive window. Per frame: script events and window input, pose the
+// control points (wall-clock time, looping), evaluate P-S (CPU or Vulkan) and/or OpenSubdiv's
+// Catmull-Clark (its stencil table, CPU), draw each with psub::Renderer into the frame picture, HUD and help as
+// captions, present through psub::Presenter. Tables for a new level, boundary or rules are
+// built by std::async while the old ones keep drawing.
+#include "view.h"
+
+#include "options.h"
+#include "play.h"
+
+#include "psub/catmark.h"
+#include "psub/evaluator.h"
+#include "psub/presenter.h"
+#include "psub/render.h"
+#include "psub/stencils.h"
+#include "psub/vulkan_evaluator.h"
+
+#include <CLI/CLI.hpp>
+#include <GLFW/glfw3.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+namespace psub::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msBetween(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+constexpr std::uint64_t kMaxFaces = 16ull << 20;  // beyond this a level is refused
+const char* const kSchemeNames[] = {"ps", "cc", "both"};
+const char* const kWireframeNames[] = {"none", "refined", "control"};
+
+// ---------------------------------------------------------------------------------------
+// Actions, from keys or the script
+
+enum class Action { LevelUp, LevelDown, Scheme, Wireframe, Play, Boundary, Rules, Help, Frame, Quit };
+
+const std::map<std::string, Action> kScriptKeys = {
+    {"+", Action::LevelUp},  {"-", Action::LevelDown}, {"s", Action::Scheme}, {"w", Action::Wireframe},
+    {"space", Action::Play}, {"b", Action::Boundary},  {"r", Action::Rules},  {"h", Action::Help},
+    {"f", Action::Frame},    {"esc", Action::Quit}};
+
+struct ScriptEvent {
+    int frame = 0;
+    enum Kind { Key, Drag, Scroll, Resize } kind = Key;
+    Action action = Action::Quit;
+    int button = 0;  // Drag: 0 left (orbit), 1 right (pan)
+    double a = 0, b = 0;
+};
+
+std::string keyList() {
+    std::string names;
+    for (const auto& entry : kScriptKeys) names += (names.empty() ? "" : ", ") + entry.first;
+    return names;
+}
+
+// The script file: one event per line, `FRAME key K`, `FRAME drag left|right DX DY`,
+// `FRAME scroll DY`, `FRAME resize W H`; `#` starts a comment. Throws InputError naming the line.
+std::vector<ScriptEvent> readScript(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw InputError(path + ": cannot read the script");
+    std::vector<ScriptEvent> events;
+    std::string line;
+    for (int number = 1; std::getline(in, line); ++number) {
+        line = line.substr(0, line.find('#'));
+        std::istringstream words(line);
+        std::string kind;
+        ScriptEvent e;
+        if (!(words >> e.frame)) {
+            if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+            throw InputError(path + ":" + std::to_string(number) + ": expected a frame number first");
+        }
+        const std::string where = path + ":" + std::to_string(number) + ": ";
+        if (e.frame < 0) throw InputError(where + "frame " + std::to_string(e.frame) + " is negative");
+        words >> kind;
+        bool ok = true;
+        if (kind == "key") {
+            std::string key;
+            words >> key;
+            const auto found = kScriptKeys.find(key);
+            if (found == kScriptKeys.end()) throw InputError(where + "unknown key '" + key + "' (keys: " + keyList() + ")");
+            e.kind = ScriptEvent::Key, e.action = found->second;
+        } else if (kind == "drag") {
+            std::string button;
+            ok = bool(words >> button >> e.a >> e.b) && (button == "left" || button == "right");
+            e.kind = ScriptEvent::Drag, e.button = button == "right";
+        } else if (kind == "scroll") {
+            ok = bool(words >> e.a);
+            e.kind = ScriptEvent::Scroll;
+        } else if (kind == "resize") {
+            ok = bool(words >> e.a >> e.b) && e.a >= 1 && e.b >= 1 && e.a <= 16384 && e.b <= 16384;
+            e.kind = ScriptEvent::Resize;
+        } else {
+            throw InputError(where + "unknown event '" + kind + "' (events: key, drag, scroll, resize)");
+        }
+        std::string extra;
+        if (!ok || (words >> extra))
+            throw InputError(where + "expected `" + kind +
+                             (kind == "drag" ? " left|right DX DY`" : kind == "scroll" ? " DY`" : " WIDTH HEIGHT`"));
+        events.push_back(e);
+    }
+    std::stable_sort(events.begin(), events.end(), [](const ScriptEvent& x, const ScriptEvent& y) { return x.frame < y.frame; });
+    return events;
+}
+
+// ---------------------------------------------------------------------------------------
+// Tables, built off the frame loop
+
+struct Built {
+    int levels = 0, ccLevels = 0;
+    Rules rules = Rules::Paper;
+    Boundary boundary = Boundary::Paper;
+    Refinement ps;
+    std::unique_ptr<CatmarkStencils> ccStencils;  // OpenSubdiv: control points -> level ccLevels
+    SurfaceTable cc;                              // its faces
+    PerLevelTable ccIdentity;  // no levels over cc's vertices: for its normals
+    FactorizedTable none;      // the evaluators keep references to their tables
+    std::string error;  // set when the level was refused
+};
+
+// Catmull-Clark levels drawn beside `levels` P-S steps: half as many (equal face counts on quads).
+int ccLevelsFor(int levels) { return levels / 2; }
+
+Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary) {
+    Built b;
+    b.levels = levels, b.rules = rules, b.boundary = boundary, b.ccLevels = ccLevelsFor(levels);
+    const Mesh& mesh = a.mesh;
+    const Connectivity& connectivity = a.checked.connectivity;
+    const bool preprocess = needsPreprocessing(mesh.faces, connectivity, Preprocess::Auto, mesh.source);
+    const Counts finest = countsAfterSteps(countMesh(mesh.faces, connectivity), levels + (preprocess ? 1 : 0), boundary, preprocess);
+    if (finest.faces > kMaxFaces) {
+        b.error = std::to_string(levels) + " steps would give " + std::to_string(finest.faces) + " faces (limit " +
+                  std::to_string(kMaxFaces) + ")";
+        return b;
+    }
+    RefineOptions options;
+    options.levels = levels, options.rules = rules, options.boundary = boundary;
+    b.ps = refine(mesh, connectivity, options);
+    b.ccStencils = std::make_unique<CatmarkStencils>(mesh.faces, b.ccLevels);
+    b.cc = buildSurfaceTable(b.ccStencils->finestFaces());
+    b.ccIdentity.controlCount = b.cc.vertexCount;
+    return b;
+}
+
+// ---------------------------------------------------------------------------------------
+// The camera: frameBox's at the start and on `f`, then orbit, zoom and pan
+
+struct Orbit {
+    std::array<float, 3> target{}, direction{0, 0, 1};  // direction: from the target to the eye
+    float distance = 1, radius = 1;
+
+    void from(const Camera& c, float framedRadius) {
+        target = c.target;
+        float length = 0;
+        for (int i = 0; i < 3; ++i) direction[i] = c.eye[i] - c.target[i], length += direction[i] * direction[i];
+        distance = std::sqrt(length);
+        for (float& d : direction) d /= distance;
+        radius = framedRadius;
+    }
+    Camera camera(float aspect) const {
+        std::array<float, 3> eye;
+        for (int i = 0; i < 3; ++i) eye[i] = target[i] + distance * direction[i];
+        return lookAt(eye, target, radius + distance, aspect);
+    }
+    void orbit(double dx, double dy) {
+        float yaw = std::atan2(direction[0], direction[2]) - float(dx) * 0.008f;
+        float pitch = std::asin(std::clamp(direction[1], -1.0f, 1.0f)) + float(dy) * 0.008f;
+        pitch = std::clamp(pitch, -1.5f, 1.5f);
+        direction = {std::cos(pitch) * std::sin(yaw), std::sin(pitch), std::cos(pitch) * std::cos(yaw)};
+    }
+    void zoom(double wheel) { distance *= std::pow(0.9f, float(wheel)); }
+    void pan(double dx, double dy, float pixelsHigh) {
+        // right = up x direction, up' = direction x right; one pixel moves the target by the view's height / pixels.
+        const std::array<float, 3> right = {direction[2], 0, -direction[0]};
+        const float rl = std::max(1e-6f, std::hypot(right[0], right[2]));
+        const std::array<float, 3> r = {right[0] / rl, 0, right[2] / rl};
+        const std::array<float, 3> u = {direction[1] * r[2] - direction[2] * r[1], direction[2] * r[0] - direction[0] * r[2],
+                                        direction[0] * r[1] - direction[1] * r[0]};
+        const float scale = 2 * distance * std::tan(0.5f * 30.0f * 3.14159265f / 180) / std::max(1.0f, pixelsHigh);
+        for (int i = 0; i < 3; ++i) target[i] += scale * (-float(dx) * r[i] + float(dy) * u[i]);
+    }
+};
+
+// ---------------------------------------------------------------------------------------
+// The viewer
+
+enum Stage { Deform, Upload, Evaluate, Normals, Render, Readback, Present, kStageCount };
+constexpr std::array<const char*, kStageCount> kStageNames = {"deform", "upload", "evaluate", "normals",
+                                                              "render", "readback", "present"};
+
+// What one scheme draws: its faces, renderer, positions and normals.
+struct Side {
+    const SurfaceTable* surface = nullptr;
+    std::unique_ptr<Renderer> renderer;
+    std::vector<float> positions, normals;
+    Image picture;
+    std::uint32_t width = 0;
+};
+
+long residentKiB() {
+    char text[128] = {};
+    const int fd = ::open("/proc/self/statm", O_RDONLY);
+    if (fd < 0) return 0;
+    const ssize_t n = ::read(fd, text, sizeof text - 1);
+    ::close(fd);
+    long pages = 0, resident = 0;
+    if (n > 0) std::sscanf(text, "%ld %ld", &pages, &resident);
+    return resident * (::sysconf(_SC_PAGESIZE) / 1024);
+}
+
+struct Viewer {
+    const ViewOptions& o;
+    Animated& animated;
+    GLFWwindow* window = nullptr;
+    std::unique_ptr<VulkanContext> context;
+    std::unique_ptr<Presenter> presenter;
+
+    std::shared_ptr<Built> built;
+    std::future<Built> pending;
+    int levels, scheme, wireframe, wantedLevels;
+    Rules rules, wantedRules;
+    Boundary boundary, wantedBoundary;
+    bool playing, help = false, quit = false, framed = false;
+    std::unique_ptr<CpuEvaluator<float>> cpu, ccNormals;
+    std::unique_ptr<VulkanEvaluator> gpu;
+    Side ps, cc;
+    std::vector<float> control;
+    Image frame;
+    Orbit orbit;
+    bool drawingDirty = true;  // renderers to re-create (level, scheme, wireframe, size)
+    double seconds = 0;        // animation time
+    std::array<double, kStageCount> stage{};
+    double fps = 0, frameMs = 0;  // frames per second over the last second; wall time of the last frame
+    std::string notice;  // shown in the HUD (refused level, build in progress)
+    bool leftDown = false, rightDown = false;
+    double cursorX = 0, cursorY = 0;
+    std::FILE* log = nullptr;
+
+    Viewer(const ViewOptions& options, Animated& a)
+        : o(options), animated(a), levels(options.levels), scheme(options.scheme), wireframe(options.wireframe),
+          wantedLevels(options.levels), rules(options.rules), wantedRules(options.rules), boundary(options.boundary),
+          wantedBoundary(options.boundary), playing(!options.paused) {}
+
+    bool showsPs() const { return scheme != 1; }
+    bool showsCc() const { return scheme != 0; }
+    std::uint64_t psFaces() const { return built->ps.surface.faceOffsets.size() - 1; }
+    std::uint64_t ccFaces() const { return built->cc.faceOffsets.size() - 1; }
+
+    void act(Action action);
+    void startBuild();
+    void adopt(Built b);
+    void makeRenderers();
+    void drawFrame(bool capture);
+    void evaluate();
+    void hud();
+    void frameModel();
+    void writeLog(int index);
+};
+
+// Starts building the tables the keys asked for, unless a build runs or they are drawn already.
+void Viewer::startBuild() {
+    if (pending.valid() || (wantedLevels == levels && wantedRules == rules && wantedBoundary == boundary)) return;
+    notice = "building level " + std::to_string(wantedLevels) + "...";
+    pending = std::async(std::launch::async, [this, l = wantedLevels, r = wantedRules, b = wantedBoundary] {
+        return buildTables(animated, l, r, b);
+    });
+}
+
+void Viewer::adopt(Built b) {
+    if (!b.error.empty()) {
+        notice = b.error;
+        std::fprintf(stderr, "psub: view: level refused: %s\n", b.error.c_str());
+        wantedLevels = levels, wantedRules = rules, wantedBoundary = boundary;
+        return;
+    }
+    notice.clear();
+    ps.renderer.reset();  // everything that refers to the old tables goes first
+    cc.renderer.reset();
+    gpu.reset();
+    cpu.reset();
+    ccNormals.reset();
+    built = std::make_shared<Built>(std::move(b));
+    levels = built->levels, rules = built->rules, boundary = built->boundary;
+    const Refinement& r = built->ps;
+    if (o.backend == Backend::Vulkan)
+        gpu = std::make_unique<VulkanEvaluator>(*context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+    else
+        cpu = std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+    ccNormals = std::make_unique<CpuEvaluator<float>>(built->ccIdentity, built->none, built->cc, TableForm::PerLevel);
+    ps.surface = &built->ps.surface;
+    cc.surface = &built->cc;
+    ps.positions.assign(3 * std::size_t(r.perLevel.refinedCount()), 0.0f);
+    ps.normals.assign(ps.positions.size(), 0.0f);
+    cc.positions.assign(3 * std::size_t(built->cc.vertexCount), 0.0f);
+    cc.normals.assign(cc.positions.size(), 0.0f);
+    drawingDirty = true;
+}
+
+void Viewer::act(Action action) {
+    switch (action) {
+    case Action::LevelUp: wantedLevels = std::min(30, wantedLevels + 1); break;
+    case Action::LevelDown: wantedLevels = std::max(0, wantedLevels - 1); break;
+    case Action::Boundary: wantedBoundary = wantedBoundary == Boundary::Paper ? Boundary::Smooth : Boundary::Paper; break;
+    case Action::Rules: wantedRules = wantedRules == Rules::Paper ? Rules::Robust : Rules::Paper; break;
+    case Action::Scheme: scheme = (scheme + 1) % 3, drawingDirty = true; break;
+    case Action::Wireframe: wireframe = (wireframe + 1) % 3, drawingDirty = true; break;
+    case Action::Play: playing = !playing; break;
+    case Action::Help: help = !help; break;
+    case Action::Frame: framed = false; break;
+    case Action::Quit: quit = true; break;
+    }
+}
+
+// Renderers for the sides shown, at the swapchain's size (halves side by side).
+void Viewer::makeRenderers() {
+    const auto [width, height] = presenter->extent();
+    const Faces& cage = animated.mesh.faces;
+    const Polygons cagePolygons{cage.vertexCount, cage.offsets, cage.verts};
+    ps.renderer.reset();
+    cc.renderer.reset();
+    RenderOptions ro;
+    ro.height = height, ro.samples = o.samples, ro.wireframe = Wireframe(wireframe);
+    const std::uint32_t left = scheme == 2 ? std::max(1u, width / 2) : width;
+    if (showsPs()) {
+        ro.width = ps.width = left;
+        ps.renderer = std::make_unique<Renderer>(*context, polygonsOf(*ps.surface), ro, cagePolygons);
+    }
+    if (showsCc()) {
+        ro.width = cc.width = scheme == 2 ? std::max(1u, width - left) : width;
+        cc.renderer = std::make_unique<Renderer>(*context, polygonsOf(*cc.surface), ro, cagePolygons);
+    }
+    frame = filledImage(width, height, ro.background);
+    drawingDirty = false;
+}
+
+// Poses the control points and evaluates what is shown; stage times into `stage`.
+void Viewer::evaluate() {
+    const Clock::time_point start = Clock::now();
+    animated.pose(std::fmod(seconds, animated.period), control);
+    const Clock::time_point posed = Clock::now();
+    stage[Deform] = msBetween(start, posed);
+    if (showsPs() && cpu) {
+        cpu->evaluate(control, ps.positions);
+        const Clock::time_point evaluated = Clock::now();
+        cpu->normals(ps.positions, ps.normals);
+        stage[Evaluate] = msBetween(posed, evaluated);
+        stage[Normals] = msBetween(evaluated, Clock::now());
+    }
+    if (showsPs() && gpu) {
+        gpu->evaluate(control, ps.positions, ps.normals);
+        const HostFrameTimes host = gpu->lastHostTimes();
+        const GpuFrameTimes onDevice = gpu->lastFrameTimes();
+        stage[Upload] = host.uploadMs;
+        stage[Normals] = onDevice.valid ? onDevice.normalsMs : 0.0;
+        stage[Evaluate] = host.waitMs - stage[Normals];
+        stage[Readback] = host.readbackMs;
+    }
+    if (showsCc()) {  // OpenSubdiv on the CPU, whatever the backend
+        const Clock::time_point ccStart = Clock::now();
+        built->ccStencils->evaluate(control, cc.positions);
+        const Clock::time_point evaluated = Clock::now();
+        ccNormals->normals(cc.positions, cc.normals);
+        stage[Evaluate] += msBetween(ccStart, evaluated);
+        stage[Normals] += msBetween(evaluated, Clock::now());
+    }
+}
+
+// frameBox of what is shown, as psub render frames it.
+void Viewer::frameModel() {
+    Box box;
+    if (showsPs()) box.extend(ps.positions);
+    if (showsCc()) box.extend(cc.positions);
+    if (wireframe == 2) box.extend(control);
+    const auto [width, height] = presenter->extent();
+    const std::uint32_t panel = scheme == 2 ? std::max(1u, width / 2) : width;
+    const Camera c = frameBox(box, float(panel) / float(height));
+    float radius = 0;
+    for (int i = 0; i < 3; ++i) radius += (box.max[i] - box.min[i]) * (box.max[i] - box.min[i]);
+    orbit.from(c, 0.5f * std::sqrt(radius) * 1.04f);
+    framed = true;
+}
+
+void Viewer::drawFrame(bool capture) {
+    stage = {};
+    evaluate();
+    if (!framed) frameModel();
+    const std::uint32_t height = presenter->extent()[1];
+    for (Side* side : {&ps, &cc}) {
+        if (!side->renderer) continue;
+        side->renderer->setControlPositions(control);
+        side->renderer->draw(side->positions, side->normals, orbit.camera(float(side->width) / float(height)),
+                             scheme == 2 ? side->picture : frame);
+        const DrawTimes d = side->renderer->lastTimes();
+        stage[Upload] += d.uploadMs, stage[Render] += d.renderMs, stage[Readback] += d.readbackMs;
+    }
+    if (scheme == 2) {  // side by side: P-S left, Catmull-Clark right
+        for (std::uint32_t y = 0; y < height; ++y) {
+            std::copy_n(ps.picture.rgba.data() + 4ull * y * ps.width, 4ull * ps.width, frame.rgba.data() + 4ull * y * frame.width);
+            std::copy_n(cc.picture.rgba.data() + 4ull * y * cc.width, 4ull * cc.width,
+                        frame.rgba.data() + 4ull * (y * frame.width + ps.width));
+        }
+    }
+    if (!o.noHud) hud();
+    const Clock::time_point start = Clock::now();
+    if (!presenter->present(frame, capture)) drawingDirty = true;
+    stage[Present] = msBetween(start, Clock::now());
+}
+
+void Viewer::hud() {
+    char text[512];
+    const std::string what = scheme == 0   ? "P-S " + std::to_string(levels) + " steps"
+                             : scheme == 1 ? "Catmull-Clark " + std::to_string(built->ccLevels) + " levels"
+                                           : "P-S " + std::to_string(levels) + " | Catmull-Clark " + std::to_string(built->ccLevels);
+    const std::uint64_t faces = (showsPs() ? psFaces() : 0) + (showsCc() ? ccFaces() : 0);
+    std::snprintf(text, sizeof text,
+                  "%s, %llu faces, %s, %.1f fps\ndeform %.2f  upload %.2f  evaluate %.2f  normals %.2f  render %.2f  "
+                  "readback %.2f  present %.2f ms\n%s, wireframe %s, boundary %s, rules %s  (h: help)%s%s",
+                  what.c_str(), (unsigned long long)faces, o.backend == Backend::Vulkan ? "vulkan" : "cpu", fps,
+                  stage[Deform], stage[Upload], stage[Evaluate], stage[Normals], stage[Render], stage[Readback],
+                  stage[Present], playing ? "playing" : "paused", kWireframeNames[wireframe],
+                  boundary == Boundary::Paper ? "paper" : "smooth", rules == Rules::Paper ? "paper" : "robust",
+                  notice.empty() ? "" : "\n", notice.c_str());
+    const int scale = frame.width >= 1200 ? 2 : 1;  // the stage line fits 1280 pixels at scale 2
+    const auto size = textSize(text, scale);
+    fillRect(frame, 4, 4, size[0] + 14, size[1] + 12, {240, 240, 240, 255});
+    drawText(frame, 10, 10, text, scale, {20, 20, 20, 255});
+    if (!help) return;
+    const char* keys =
+        "mouse: left drag orbit, right drag pan, wheel zoom\n"
+        "+ / -  level up / down        s  P-S, Catmull-Clark, both\n"
+        "w  wireframe none/refined/control   space  play / pause\n"
+        "b  boundary paper/smooth      r  rules paper/robust\n"
+        "f  frame the model   h  this help   Esc  quit";
+    const auto helpSize = textSize(keys, scale);
+    const int x = 10, y = size[1] + 24;
+    fillRect(frame, x - 6, y - 6, x + helpSize[0] + 6, y + helpSize[1] + 6, {255, 250, 220, 255});
+    drawText(frame, x, y, keys, scale, {20, 20, 20, 255});
+}
+
+void Viewer::writeLog(int index) {
+    if (!log) return;
+    const auto [width, height] = presenter->extent();
+    std::fprintf(log,
+                 "{\"frame\": %d, \"level\": %d, \"cc_level\": %d, \"scheme\": \"%s\", \"refined_faces\": %llu, "
+                 "\"ps_faces\": %llu, \"cc_faces\": %llu, \"drawn\": [%s%s%s], \"width\": %u, \"height\": %u, "
+                 "\"wireframe\": \"%s\", \"playing\": %s, \"boundary\": \"%s\", \"rules\": \"%s\", \"rss_kib\": %ld, "
+                 "\"validation_messages\": %llu, \"frame_ms\": %.4f, \"stages\": {",
+                 index, levels, built->ccLevels, kSchemeNames[scheme],
+                 (unsigned long long)(showsPs() ? psFaces() : ccFaces()), (unsigned long long)psFaces(),
+                 (unsigned long long)ccFaces(), showsPs() ? "\"ps\"" : "", scheme == 2 ? ", " : "",
+                 showsCc() ? "\"cc\"" : "", width, height, kWireframeNames[wireframe],
+                 playing ? "true" : "false", boundary == Boundary::Paper ? "paper" : "smooth",
+                 rules == Rules::Paper ? "paper" : "robust", residentKiB(),
+                 (unsigned long long)context->validationMessageCount(), frameMs);
+    for (int s = 0; s < kStageCount; ++s)
+        std::fprintf(log, "%s\"%s_ms\": %.4f", s ? ", " : "", kStageNames[std::size_t(s)], stage[std::size_t(s)]);
+    std::fprintf(log, "}}\n");
+}
+
+// GLFW callbacks: the viewer is the window's user pointer.
+Viewer& viewerOf(GLFWwindow* w) { return *static_cast<Viewer*>(glfwGetWindowUserPointer(w)); }
+
+void onChar(GLFWwindow* w, unsigned int codepoint) {
+    static const std::map<unsigned int, Action> keys = {
+        {'+', Action::LevelUp}, {'=', Action::LevelUp}, {'-', Action::LevelDown}, {'s', Action::Scheme},
+        {'w', Action::Wireframe}, {' ', Action::Play}, {'b', Action::Boundary}, {'r', Action::Rules},
+        {'h', Action::Help}, {'f', Action::Frame}};
+    if (const auto found = keys.find(codepoint); found != keys.end()) viewerOf(w).act(found->second);
+}
+
+void onKey(GLFWwindow* w, int key, int, int action, int) {
+    if (key == GLFW_KEY_ESCAPE && action == GLFW_PRESS) viewerOf(w).act(Action::Quit);
+}
+
+void onButton(GLFWwindow* w, int button, int action, int) {
+    Viewer& v = viewerOf(w);
+    if (button == GLFW_MOUSE_BUTTON_LEFT) v.leftDown = action == GLFW_PRESS;
+    if (button == GLFW_MOUSE_BUTTON_RIGHT) v.rightDown = action == GLFW_PRESS;
+    glfwGetCursorPos(w, &v.cursorX, &v.cursorY);
+}
+
+void onCursor(GLFWwindow* w, double x, double y) {
+    Viewer& v = viewerOf(w);
+    const double dx = x - v.cursorX, dy = y - v.cursorY;
+    v.cursorX = x, v.cursorY = y;
+    if (v.leftDown) v.orbit.orbit(dx, dy);
+    if (v.rightDown) v.orbit.pan(dx, dy, float(v.presenter->extent()[1]));
+}
+
+void onScroll(GLFWwindow* w, double, double dy) { viewerOf(w).orbit.zoom(dy); }
+
+std::string glfwLastError() {
+    const char* text = nullptr;
+    glfwGetError(&text);
+    return text ? text : "no reason given";
+}
+
+// Opens the window; returns nullptr after a message naming $DISPLAY when there is none.
+GLFWwindow* openWindow(const ViewOptions& o) {
+    const char* display = std::getenv("DISPLAY");
+    const std::string which = display && *display ? "$DISPLAY=" + std::string(display) + " cannot be opened"
+                                                   : std::string("$DISPLAY is not set");
+    if (!glfwInit()) {
+        std::fprintf(stderr,
+                     "psub: error: view: no display (%s; GLFW: %s): run under a display, or headless with "
+                     "`xvfb-run -a psub view ...`, or draw frames offscreen with `psub play --render DIR`\n",
+                     which.c_str(), glfwLastError().c_str());
+        return nullptr;
+    }
+    glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
+    glfwWindowHint(GLFW_RESIZABLE, GLFW_TRUE);
+    const std::string title = "psub view: " + std::filesystem::path(o.input).filename().string();
+    GLFWwindow* window = glfwCreateWindow(int(o.width), int(o.height), title.c_str(), nullptr, nullptr);
+    if (!window) {
+        std::fprintf(stderr, "psub: error: view: cannot open a window (%s; GLFW: %s)\n", which.c_str(),
+                     glfwLastError().c_str());
+        glfwTerminate();
+        return nullptr;
+    }
+    return window;
+}
+
+int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
+    const ViewOptions& o = v.o;
+    std::size_t next = 0;
+    Clock::time_point last = Clock::now(), fpsStart = last, firstDrawn = last;
+    int fpsFrames = 0, drawn = 0;
+    for (int index = 0; !v.quit && !glfwWindowShouldClose(v.window); ++index) {
+        glfwPollEvents();
+        for (; next < script.size() && script[next].frame == index; ++next) {
+            const ScriptEvent& e = script[next];
+            if (e.kind == ScriptEvent::Key) v.act(e.action);
+            if (e.kind == ScriptEvent::Drag) e.button ? v.orbit.pan(e.a, e.b, float(v.presenter->extent()[1])) : v.orbit.orbit(e.a, e.b);
+            if (e.kind == ScriptEvent::Scroll) v.orbit.zoom(e.a);
+            if (e.kind == ScriptEvent::Resize) {
+                glfwSetWindowSize(v.window, int(e.a), int(e.b));
+                // The X server applies the size; wait (at most 2 s) until GLFW sees it.
+                const Clock::time_point asked = Clock::now();
+                int w = 0, h = 0;
+                while (msBetween(asked, Clock::now()) < 2000) {
+                    glfwWaitEventsTimeout(0.01);
+                    glfwGetFramebufferSize(v.window, &w, &h);
+                    if (w == int(e.a) && h == int(e.b)) break;
+                }
+            }
+        }
+        if (v.quit) break;
+        if (v.pending.valid() && v.pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) v.adopt(v.pending.get());
+        v.startBuild();
+        int w = 0, h = 0;
+        glfwGetFramebufferSize(v.window, &w, &h);
+        if (w == 0 || h == 0) {  // minimised: nothing to draw
+            glfwWaitEventsTimeout(0.1);
+            --index;
+            continue;
+        }
+        const auto extent = v.presenter->extent();
+        if (std::uint32_t(w) != extent[0] || std::uint32_t(h) != extent[1]) {
+            v.presenter->recreate();
+            v.drawingDirty = true;
+        }
+        if (v.drawingDirty) v.makeRenderers();
+        const bool lastFrame = o.frames > 0 && index + 1 == o.frames;
+        v.drawFrame(lastFrame && !o.screenshot.empty());
+        if (v.drawingDirty) {  // the swapchain changed under the present: draw this frame again
+            --index;
+            continue;
+        }
+        const Clock::time_point now = Clock::now();
+        v.frameMs = msBetween(last, now);
+        v.writeLog(index);
+        if (++drawn == 1) firstDrawn = now;
+        if (v.playing) v.seconds += msBetween(last, now) / 1000.0;
+        last = now;
+        ++fpsFrames;
+        if (msBetween(fpsStart, now) >= 1000) {
+            v.fps = 1000.0 * fpsFrames / msBetween(fpsStart, now);
+            char title[160];
+            std::snprintf(title, sizeof title, "psub view: %.1f fps", v.fps);
+            glfwSetWindowTitle(v.window, title);
+            fpsStart = now, fpsFrames = 0;
+        }
+        if (lastFrame) break;
+    }
+    if (!o.screenshot.empty()) {
+        if (drawn == 0 || (o.frames > 0 && drawn < o.frames)) {
+            std::fprintf(stderr, "psub: error: view: --screenshot needs --frames N and all N frames drawn\n");
+            return 1;
+        }
+        writePng(o.screenshot, v.presenter->screenshot());
+    }
+    const double seconds = msBetween(firstDrawn, Clock::now()) / 1000.0;
+    std::printf("psub view: %d frames drawn; %.2f fps after the first frame (%d frames in %.2f s); present mode %s\n",
+                drawn, drawn > 1 && seconds > 0 ? (drawn - 1) / seconds : 0.0, drawn - 1, seconds,
+                v.presenter->presentMode());
+    return 0;
+}
+
+int view(const ViewOptions& o, Animated& animated, const std::vector<ScriptEvent>& script, GLFWwindow* window) {
+    Viewer v(o, animated);
+    v.window = window;
+    try {
+        v.context = std::make_unique<VulkanContext>(presentableOptions());
+        v.presenter = std::make_unique<Presenter>(*v.context, window, !o.noVsync);
+    } catch (const VulkanError& e) {
+        std::fprintf(stderr, "psub: error: view: %s\n", e.what());
+        return 1;
+    }
+    glfwSetWindowUserPointer(window, &v);
+    glfwSetCharCallback(window, onChar);
+    glfwSetKeyCallback(window, onKey);
+    glfwSetMouseButtonCallback(window, onButton);
+    glfwSetCursorPosCallback(window, onCursor);
+    glfwSetScrollCallback(window, onScroll);
+    v.control.resize(3 * std::size_t(animated.mesh.faces.vertexCount));
+    // The first tables are built here, before the loop (later ones off it).
+    Built first = buildTables(animated, o.levels, o.rules, o.boundary);
+    if (!first.error.empty()) throw InputError(o.input + ": --levels " + first.error);
+    v.adopt(std::move(first));
+    struct CloseLog {
+        std::FILE*& f;
+        ~CloseLog() {
+            if (f) std::fclose(f);
+        }
+    } closeLog{v.log};
+    if (!o.log.empty() && !(v.log = std::fopen(o.log.c_str(), "w"))) {
+        std::fprintf(stderr, "psub: error: view: cannot write the log %s\n", o.log.c_str());
+        return 1;
+    }
+    int status = 0;
+    try {
+        status = loop(v, script);
+    } catch (const VulkanError& e) {
+        std::fprintf(stderr, "psub: error: view: %s\n", e.what());
+        status = 1;
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::runtime_error& e) {  // the screenshot could not be written
+        std::fprintf(stderr, "psub: error: view: %s\n", e.what());
+        status = 1;
+    }
+    if (v.pending.valid()) v.pending.wait();
+    glfwSetWindowUserPointer(window, nullptr);
+    return status;
+}
+
+}  // namespace
+
+CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
+    static const std::map<std::string, int> schemes = {{"ps", 0}, {"cc", 1}, {"both", 2}};
+    static const std::map<std::string, int> wireframes = {{"none", 0}, {"refined", 1}, {"control", 2}};
+    CLI::App* vi = app.add_subcommand("view", "Play an animated, refined mesh in a window (GLFW + Vulkan)");
+    vi->add_option("input", o.input, "control mesh: .obj, or .gltf / .glb with skinning, morph targets and clips")
+        ->required();
+    vi->add_option("-l,--levels", o.levels, "P-S steps (+ and - change it)")->check(CLI::Range(0, 30))->default_val(3);
+    addChoice(vi, "--scheme", o.scheme, schemes,
+              "ps; cc: Catmull-Clark through OpenSubdiv (levels / 2 levels, on the CPU); both side by side", "ps");
+    vi->add_option("--anim", o.animation,
+                   "wave, twist or bend (procedural), or a glTF clip's name (default: a glTF file's first clip, "
+                   "else wave); plays in wall-clock time, looping");
+    addChoice(vi, "--backend", o.backend, kCpuOrVulkan, "where the P-S stencils and normals run: cpu or vulkan", "cpu");
+    addChoice(vi, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (r toggles)", "paper");
+    addChoice(vi, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (b toggles)", "paper");
+    addChoice(vi, "--wireframe", o.wireframe, wireframes, "none, refined or control (w cycles)", "none");
+    addSize(vi, "--size", o.width, o.height, "window size", 1, "1280x720");
+    addSamples(vi, o.samples);
+    vi->add_flag("--no-vsync", o.noVsync, "present as fast as possible (to measure)");
+    vi->add_flag("--no-hud", o.noHud, "hide the overlay of timings and state");
+    vi->add_flag("--paused", o.paused, "start paused (space plays)");
+    CLI::Option* frames =
+        vi->add_option("--frames", o.frames, "exit with status 0 after this many frames")->check(CLI::Range(1, 100000000));
+    vi->add_option("--script", o.script, "replay key and mouse events at frame numbers (format below)");
+    vi->add_option("--screenshot", o.screenshot,
+                   "with --frames: write the last frame's swapchain image as PNG (atomically)")
+        ->needs(frames);
+    vi->add_option("--log", o.log,
+                   "write one JSON line per frame: frame, level, cc_level, scheme, refined_faces, ps_faces, cc_faces, "
+                   "drawn, width, height, wireframe, playing, boundary, rules, rss_kib, validation_messages, frame_ms "
+                   "(wall time since the last frame), "
+                   "stages.{deform,upload,evaluate,normals,render,readback,present}_ms");
+    vi->footer(
+        "Mouse: left drag orbits, right drag pans, the wheel zooms. Keys: + / - level (tables built in the\n"
+        "background; the old level draws meanwhile), s P-S / Catmull-Clark / both, w wireframe, space\n"
+        "play/pause, b boundary, r rules, f frame the model, h help, Esc quits (status 0).\n"
+        "The start camera is psub render's (it frames the surface at the first frame). Pixels: 8-bit\n"
+        "sRGB values, as psub render writes them, shown through a UNORM swapchain (no re-encoding).\n"
+        "Script (--script FILE): one event per line, applied before drawing that frame (frames count\n"
+        "from 0), # starts a comment:\n"
+        "  FRAME key K                 K: + - s w space b r h f esc\n"
+        "  FRAME drag left|right DX DY  orbit (left) or pan (right) by DX, DY pixels\n"
+        "  FRAME scroll DY             zoom (positive: closer)\n"
+        "  FRAME resize W H            resize the window\n"
+        "A bad script (unknown key or event, bad numbers) is an error naming the line: exit 1.\n"
+        "Needs a display: without one it exits 1; use `xvfb-run -a psub view ...` or `psub play --render`.\n"
+        "Examples:\n  psub view data/spot_control_mesh.obj --levels 4 --anim twist\n"
+        "  psub view data/two_bone_cylinder.glb --levels 4 --backend vulkan\n"
+        "  xvfb-run -a psub view data/cube.obj --frames 60 --script keys.txt --screenshot out.png --log log.jsonl");
+    return vi;
+}
+
+int runView(const ViewOptions& o) {
+    const std::vector<ScriptEvent> script = o.script.empty() ? std::vector<ScriptEvent>{} : readScript(o.script);
+    PlayOptions playOptions;
+    playOptions.input = o.input;
+    playOptions.animation = o.animation;
+    Animated animated = loadAnimated(playOptions);
+    GLFWwindow* window = openWindow(o);
+    if (!window) return 1;
+    int status = 1;
+    try {
+        status = view(o, animated, script, window);
+    } catch (...) {
+        glfwDestroyWindow(window);
+        glfwTerminate();
+        throw;
+    }
+    glfwDestroyWindow(window);
+    glfwTerminate();
+    return status;
+}
+
+}  // namespace psub::cli
