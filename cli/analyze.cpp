@@ -2,6 +2,7 @@
 #include "analyze.h"
 #include "commands.h"
 #include "json.h"
+#include "numbers.h"
 
 #include "psub/analysis.h"
 #include "psub/catmark.h"
@@ -102,10 +103,10 @@ std::vector<Index> parseValences(const std::string& text) {
         return InputError("--valence '" + text + "': " + why + " (examples: 2..16, 5, 2,3,8..10)");
     };
     const auto number = [&](const std::string& part) {
-        if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos)
+        if (part.empty() || part.find_first_not_of("0123456789") != std::string::npos)
             throw bad("'" + part + "' is not a valence");
-        const int n = std::stoi(part);
-        if (n < 2 || n > 64) throw bad("valences run from 2 to 64");
+        long long n = 0;  // decimal, as every numeric option (numbers.h): 010 is ten
+        if (!parseInteger(part, 2, 64, n).empty()) throw bad("valences run from 2 to 64");
         return Index(n);
     };
     std::size_t begin = 0;

@@ -99,6 +99,14 @@ TEST_F(HostileOptions, LeadingZerosAreDecimalNotOctal) {
     EXPECT_TRUE(contains(plus.out, ", 9 P-S steps")) << plus.out.substr(0, 200);
 }
 
+TEST_F(HostileOptions, ValenceListsAreDecimalAndRangeChecked) {
+    for (const char* value : {"99999999999999999999", "1", "65", "-3", "3,,4", "3..2", "0x10", "3.0", ""})
+        expectUsageError("analyze", "--valence", value);
+    const PsubRun r = psub("analyze --valence 0016,003 --rules paper --json");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(contains(r.out, "{\"n\": 16, ") && contains(r.out, "{\"n\": 3, ")) << r.out.substr(0, 300);
+}
+
 TEST_F(HostileOptions, MaxMemoryRefusesNegativeZeroOverflowAndJunk) {
     for (const char* value : {"-5", "0", "18446744073709551616", "17179869184G", "5Q", "1.5G", "G", "", "nan"})
         expectUsageError("stats " + kCube, "--max-memory", value);
