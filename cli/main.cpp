@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
     SubdivideOptions subdivide;
     CLI::App* sub = app.add_subcommand("subdivide", "Refine a mesh and write it as OBJ");
     sub->add_option("input", subdivide.input, "input mesh (.obj)")->required();
-    sub->add_option("-o,--output", subdivide.output, "output mesh (.obj), written atomically")->required();
+    sub->add_option("-o,--output", subdivide.output, "output mesh (.obj), written atomically; - for standard output")->required();
     addInteger(sub, "-l,--levels", subdivide.levels, 0, kMaxLevels,
                "refinement steps (P-S steps after any preprocessing; 0 writes the preprocessed mesh)", 1);
     addChoice(sub, "--scheme", subdivide.scheme, kSchemeNames,

@@ -118,7 +118,8 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
         readbackMs.push_back(renderer.lastTimes().readbackMs);
     }
     writePng(o.output, image);
-    std::printf("%s: %ux%u, %u faces (%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
+    // The summary goes to stderr when the PNG itself went to standard output (-o -).
+    std::fprintf(o.output == "-" ? stderr : stdout, "%s: %ux%u, %u faces (%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
                 o.output.c_str(), o.width, o.height, std::uint32_t(d.surface.faceOffsets.size() - 1), d.what.c_str(),
                 renderer.triangleCount(),
                 renderer.lineCount() ? (" + " + std::to_string(renderer.lineCount()) + " lines").c_str() : "",
@@ -132,7 +133,7 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
 CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     CLI::App* re = app.add_subcommand("render", "Draw a refined mesh offscreen with Vulkan into a PNG");
     re->add_option("input", o.input, "input mesh (.obj)")->required();
-    re->add_option("-o,--output", o.output, "output image (.png), written atomically")->required();
+    re->add_option("-o,--output", o.output, "output image (.png), written atomically; - for standard output")->required();
     addInteger(re, "-l,--levels", o.levels, 0, 30, "refinement steps (P-S) or levels (--scheme cc)", 4);
     addChoice(re, "--scheme", o.scheme, kSchemeNames, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
     addChoice(re, "--wireframe", o.wireframe, kWireframe,

@@ -94,6 +94,16 @@ TEST_F(HostileOutput, DashWritesTheMeshToStandardOutputAndTheSummaryToStderr) {
     EXPECT_TRUE(namesIn(out()).empty());
 }
 
+TEST_F(HostileOutput, RenderDashWritesThePngToStandardOutput) {
+    // Needs a Vulkan device (lavapipe will do); none fails unless PSUB_ALLOW_NO_VULKAN=1.
+    const PsubRun r = psub("render " + kCube + " -o - --levels 1 --size 32x32 --msaa 1");
+    if (r.status == 1 && contains(r.err, "Vulkan") && std::getenv("PSUB_ALLOW_NO_VULKAN")) GTEST_SKIP() << r.err;
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+    EXPECT_TRUE(contains(r.err, "-: 32x32")) << r.err;
+    EXPECT_TRUE(namesIn(out()).empty());
+}
+
 TEST_F(HostileOutput, StatsOnAFullStandardOutputExitsOne) {
     const PsubRun r = psub("stats " + kCube + " --levels 2", "/dev/full");
     EXPECT_EQ(r.status, 1);
