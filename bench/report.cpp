@@ -1,6 +1,10 @@
 // The benchmark's output: markdown tables (stdout), JSON and an SVG plot written by hand.
 #include "detail.h"
 
+#include "psub/output.h"
+
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <cstdarg>
 #include <fstream>
@@ -176,144 +180,69 @@ void printMarkdown(const Report& report, std::FILE* out) {
 
 namespace {
 
-std::string quote(const std::string& text) {
-    std::string out = "\"";
-    for (const char c : text) {
-        switch (c) {
-            case '"': out += "\\\""; break;
-            case '\\': out += "\\\\"; break;
-            case '\n': out += "\\n"; break;
-            case '\t': out += "\\t"; break;
-            case '\r': out += "\\r"; break;
-            default:
-                if (static_cast<unsigned char>(c) < 0x20)
-                    out += format("\\u%04x", unsigned(static_cast<unsigned char>(c)));
-                else
-                    out += c;
-        }
-    }
-    return out + "\"";
-}
-
-std::string number(double value) { return std::isfinite(value) ? format("%.9g", value) : "null"; }
-std::string number(std::uint64_t value) { return std::to_string(value); }
-std::string number(int value) { return std::to_string(value); }
-
-// "key": value pairs, comma-separated, in an object.
-class Object {
-public:
-    Object& add(const std::string& key, const std::string& rawValue) {
-        text_ += (text_.empty() ? "" : ", ") + quote(key) + ": " + rawValue;
-        return *this;
-    }
-    Object& str(const std::string& key, const std::string& value) { return add(key, quote(value)); }
-    template <class T>
-    Object& num(const std::string& key, T value) { return add(key, number(value)); }
-    std::string text() const { return "{" + text_ + "}"; }
-
-private:
-    std::string text_;
-};
-
-template <class T>
-std::string array(const std::vector<T>& values) {
-    std::string out = "[";
-    for (std::size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + number(values[i]);
-    return out + "]";
-}
-
-std::string lines(const std::vector<std::string>& items, const char* indent) {
-    std::string out = "[";
-    for (std::size_t i = 0; i < items.size(); ++i) out += std::string(i ? "," : "") + "\n" + indent + items[i];
-    return out + (items.empty() ? "]" : std::string("\n") + std::string(indent).substr(2) + "]");
-}
+using Json = nlohmann::ordered_json;  // keeps the fields in the order written
 
 }  // namespace
 
 void writeJson(const Report& report, const std::string& path) {
     const Machine& m = report.machine;
-    Object machine;
-    machine.str("cpu", m.cpu).num("cores", m.cores).num("threads", m.threads).num("memory_gib", m.memoryGiB)
-        .str("compiler", m.compiler).str("opensubdiv", m.osdVersion).str("kernel", m.kernel).str("date", m.date)
-        .num("load_average_start", report.loadStart).num("load_average_end", report.loadEnd)
-        .num("other_cpu_seconds", report.otherCpuSeconds).num("steal_seconds", report.stealSeconds);
+    Json machine = {{"cpu", m.cpu}, {"cores", m.cores}, {"threads", m.threads}, {"memory_gib", m.memoryGiB},
+                    {"compiler", m.compiler}, {"opensubdiv", m.osdVersion}, {"kernel", m.kernel}, {"date", m.date},
+                    {"load_average_start", report.loadStart}, {"load_average_end", report.loadEnd},
+                    {"other_cpu_seconds", report.otherCpuSeconds}, {"steal_seconds", report.stealSeconds}};
 
-    std::vector<std::string> models, sizes, results, warnings;
+    Json models = Json::array(), sizes = Json::array(), results = Json::array();
     for (const ModelResult& model : report.models) {
         std::vector<std::uint64_t> sizeList(model.sizes.begin(), model.sizes.end());
-        models.push_back(Object()
-                             .str("model", model.name).str("path", model.path)
-                             .num("vertices", model.vertices).num("faces", model.faces)
-                             .add("preprocessed", model.preprocessed ? "true" : "false")
-                             .add("ps_faces_per_step", array(model.psFaces))
-                             .add("cc_faces_per_level", array(model.ccFaces))
-                             .add("cc_levels_measured", array(sizeList))
-                             .num("input_volume", model.input.volume)
-                             .num("input_bbox_diagonal", model.input.diagonal)
-                             .text());
+        models.push_back({{"model", model.name}, {"path", model.path}, {"vertices", model.vertices},
+                          {"faces", model.faces}, {"preprocessed", model.preprocessed},
+                          {"ps_faces_per_step", model.psFaces}, {"cc_faces_per_level", model.ccFaces},
+                          {"cc_levels_measured", sizeList}, {"input_volume", model.input.volume},
+                          {"input_bbox_diagonal", model.input.diagonal}});
     }
     for (const SizeResult& size : report.sizes)
-        sizes.push_back(Object()
-                            .str("model", size.model).num("cc_levels", size.k).num("ps_levels", size.psLevels)
-                            .num("cc_faces", size.ccFaces).num("ps_faces", size.psFaces)
-                            .num("cc_volume", size.cc.volume).num("cc_bbox_diagonal", size.cc.diagonal)
-                            .num("ps_volume", size.ps.volume).num("ps_bbox_diagonal", size.ps.diagonal)
-                            .num("osd_best_frame_ms", size.osdBestFrameMs)
-                            .num("osd_best_build_ms", size.osdBestBuildMs)
-                            .text());
+        sizes.push_back({{"model", size.model}, {"cc_levels", size.k}, {"ps_levels", size.psLevels},
+                         {"cc_faces", size.ccFaces}, {"ps_faces", size.psFaces}, {"cc_volume", size.cc.volume},
+                         {"cc_bbox_diagonal", size.cc.diagonal}, {"ps_volume", size.ps.volume},
+                         {"ps_bbox_diagonal", size.ps.diagonal}, {"osd_best_frame_ms", size.osdBestFrameMs},
+                         {"osd_best_build_ms", size.osdBestBuildMs}});
     for (const Record& r : report.records) {
-        Object o;
-        o.str("model", r.model).str("scheme", r.scheme).num("levels", r.levels).num("cc_level", r.ccLevel)
-            .num("refined_faces", r.refinedFaces).num("refined_vertices", r.refinedVertices)
-            .num("control_vertices", r.controlVertices).str("evaluator", r.evaluator).str("table", r.table)
-            .num("threads", r.threads).num("layout_floats", r.layoutFloats);
-        if (r.probe3 >= 0) o.num("probe_ms_3f", r.probe3).num("probe_ms_4f", r.probe4);
-        o.num("build_ms", r.buildMs).num("topology_ms", r.topologyMs).num("table_ms", r.tableMs)
-            .num("build_repetitions", r.buildRepetitions)
-            .num("table_bytes", r.tableBytes).num("table_entries", r.tableEntries)
-            .num("frame_ms_median", r.timing.median).num("frame_ms_min", r.timing.min).num("frames", r.timing.frames)
-            .num("bytes_per_frame", r.bytesPerFrame).num("gbs", r.gbs).num("bandwidth_fraction", r.bandwidthFraction)
-            .num("ratio_vs_osd_best", r.ratioVsOsdBest).num("build_ratio_vs_osd_best", r.buildRatioVsOsdBest)
-            .num("max_diff_rel", r.maxDiff).num("volume", r.shape.volume).num("bbox_diagonal", r.shape.diagonal);
-        results.push_back(o.text());
+        Json o = {{"model", r.model}, {"scheme", r.scheme}, {"levels", r.levels}, {"cc_level", r.ccLevel},
+                  {"refined_faces", r.refinedFaces}, {"refined_vertices", r.refinedVertices},
+                  {"control_vertices", r.controlVertices}, {"evaluator", r.evaluator}, {"table", r.table},
+                  {"threads", r.threads}, {"layout_floats", r.layoutFloats}};
+        if (r.probe3 >= 0) o["probe_ms_3f"] = r.probe3, o["probe_ms_4f"] = r.probe4;
+        o["build_ms"] = r.buildMs, o["topology_ms"] = r.topologyMs, o["table_ms"] = r.tableMs;
+        o["build_repetitions"] = r.buildRepetitions, o["table_bytes"] = r.tableBytes, o["table_entries"] = r.tableEntries;
+        o["frame_ms_median"] = r.timing.median, o["frame_ms_min"] = r.timing.min, o["frames"] = r.timing.frames;
+        o["bytes_per_frame"] = r.bytesPerFrame, o["gbs"] = r.gbs, o["bandwidth_fraction"] = r.bandwidthFraction;
+        o["ratio_vs_osd_best"] = r.ratioVsOsdBest, o["build_ratio_vs_osd_best"] = r.buildRatioVsOsdBest;
+        o["max_diff_rel"] = r.maxDiff, o["volume"] = r.shape.volume, o["bbox_diagonal"] = r.shape.diagonal;
+        results.push_back(std::move(o));
     }
-    std::vector<std::string> notes;
-    for (const std::string& warning : report.warnings) warnings.push_back(quote(warning));
-    for (const std::string& note : report.notes) notes.push_back(quote(note));
-
-    std::ostringstream json;
-    json << "{\n";
-    json << "  \"machine\": " << machine.text() << ",\n";
-    json << "  \"date\": " << quote(m.date) << ",\n";
-    json << "  \"command\": " << quote(report.command) << ",\n";
-    json << "  \"triad_gbs\": " << number(report.triadAll) << ",\n";
-    json << "  \"triad_gbs_1thread\": " << number(report.triad1) << ",\n";
-    json << "  \"triad\": "
-         << Object()
-                .num("elements_per_array", std::uint64_t(report.triadElements))
-                .num("bytes_per_element", 24)
-                .str("convention", "STREAM: a[i] = b[i] + s*c[i], 3 arrays x 8 bytes per element, best of several runs")
-                .text()
-         << ",\n";
-    json << "  \"frames\": "
-         << Object().num("warmup", report.frames.warmup).num("frames", report.frames.frames)
-                .num("budget_seconds", report.frames.budgetSeconds).add("quick", report.quick ? "true" : "false")
-                .text()
-         << ",\n";
-    json << "  \"max_faces\": " << report.maxFaces << ",\n";
-    json << "  \"bytes_per_frame_model\": "
-         << quote("table bytes + for each pass: source vertices read once + destination vertices written once, "
-                  "at layout_floats x 4 bytes per vertex (per-level/cascading: one pass per level; factorized: "
-                  "control points -> finest level)")
-         << ",\n";
-    json << "  \"seconds\": " << number(report.seconds) << ",\n";
-    json << "  \"models\": " << lines(models, "    ") << ",\n";
-    json << "  \"sizes\": " << lines(sizes, "    ") << ",\n";
-    json << "  \"results\": " << lines(results, "    ") << ",\n";
-    json << "  \"notes\": " << lines(notes, "    ") << ",\n";
-    json << "  \"warnings\": " << lines(warnings, "    ") << "\n";
-    json << "}\n";
-    writeFileAtomic(path, json.str());
+    const Json json = {
+        {"machine", machine},
+        {"date", m.date},
+        {"command", report.command},
+        {"triad_gbs", report.triadAll},
+        {"triad_gbs_1thread", report.triad1},
+        {"triad", {{"elements_per_array", std::uint64_t(report.triadElements)}, {"bytes_per_element", 24},
+                   {"convention", "STREAM: a[i] = b[i] + s*c[i], 3 arrays x 8 bytes per element, best of several runs"}}},
+        {"frames", {{"warmup", report.frames.warmup}, {"frames", report.frames.frames},
+                    {"budget_seconds", report.frames.budgetSeconds}, {"quick", report.quick}}},
+        {"max_faces", report.maxFaces},
+        {"bytes_per_frame_model",
+         "table bytes + for each pass: source vertices read once + destination vertices written once, "
+         "at layout_floats x 4 bytes per vertex (per-level/cascading: one pass per level; factorized: "
+         "control points -> finest level)"},
+        {"seconds", report.seconds},
+        {"models", models},
+        {"sizes", sizes},
+        {"results", results},
+        {"notes", report.notes},
+        {"warnings", report.warnings}};
+    // Invalid UTF-8 (a model path in another encoding) is replaced, never a throw.
+    writeOutput(path, json.dump(2, ' ', false, Json::error_handler_t::replace) + "\n");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -437,7 +366,7 @@ void writeSvg(const Report& report, const std::string& path) {
     svg << format("<text x=\"%.0f\" y=\"%.0f\" fill=\"#555\">command: %s</text>\n", left, height - 12,
                   escape(report.command).c_str());
     svg << "</svg>\n";
-    writeFileAtomic(path, svg.str());
+    writeOutput(path, svg.str());
 }
 
 }  // namespace psub::bench::detail

@@ -1,6 +1,8 @@
 // psub analyze, psub compare and the demo's verdict table, over psub/analysis.h.
 #include "analyze.h"
 #include "commands.h"
+#include "json.h"
+#include "numbers.h"
 
 #include "psub/analysis.h"
 #include "psub/catmark.h"
@@ -21,14 +23,6 @@ std::vector<Rules> rulesOf(const std::string& name) {
     return {Rules::Paper, Rules::Robust};
 }
 
-// A double as JSON: shortest exact text; null for NaN and infinities.
-std::string jsonNumber(double value) {
-    if (!std::isfinite(value)) return "null";
-    char text[32];
-    std::snprintf(text, sizeof text, "%.17g", value);
-    return text;
-}
-
 std::string eigenvalueText(std::complex<double> value) {
     char text[48];
     if (value.imag() == 0)
@@ -38,34 +32,15 @@ std::string eigenvalueText(std::complex<double> value) {
     return text;
 }
 
-std::string jsonRecord(const ValenceReport& r) {
-    std::string out = "{\"n\": " + std::to_string(r.valence) + ", \"rules\": \"" + rulesName(r.rules) +
-                      "\", \"eigenvalues\": [";
-    for (std::size_t k = 0; k < r.eigenvalues.size(); ++k) {
-        if (k) out += ", ";
-        out += '[';
-        out += jsonNumber(r.eigenvalues[k].real());
-        out += ", ";
-        out += jsonNumber(r.eigenvalues[k].imag());
-        out += ']';
-    }
-    out += std::string("], \"c1_necessary\": ") + (r.c1Necessary ? "true" : "false") +
-           ", \"characteristic_map_injective\": " + (r.characteristicMapInjective ? "true" : "false") +
-           ", \"cc_lambda1\": " + jsonNumber(r.ccLambda1) + ", \"cc_lambda1_closed_form\": " +
-           jsonNumber(r.ccLambda1ClosedForm) + ", \"lambda1\": " + jsonNumber(r.lambda1) +
-           ", \"lambda3_over_lambda1_squared\": " + jsonNumber(r.lambda3OverLambda1Squared) +
-           ", \"matrix_size\": " + std::to_string(r.matrixSize) + ", \"ring_windings\": [";
-    for (std::size_t k = 0; k < r.ringWindings.size(); ++k) {
-        if (k) out += ", ";
-        out += std::to_string(r.ringWindings[k]);
-    }
-    out += "], \"annulus_faces\": " + std::to_string(r.annulusFaces) +
-           ", \"folded_annulus_faces\": " + std::to_string(r.foldedAnnulusFaces) + ", \"normal_spread_degrees\": [";
-    for (std::size_t k = 0; k < r.normalSpreadDegrees.size(); ++k) {
-        if (k) out += ", ";
-        out += jsonNumber(r.normalSpreadDegrees[k]);
-    }
-    return out + "]}";
+Json jsonRecord(const ValenceReport& r) {
+    Json eigenvalues = Json::array();
+    for (const auto& value : r.eigenvalues) eigenvalues.push_back({value.real(), value.imag()});
+    return {{"n", r.valence}, {"rules", rulesName(r.rules)}, {"eigenvalues", eigenvalues},
+            {"c1_necessary", r.c1Necessary}, {"characteristic_map_injective", r.characteristicMapInjective},
+            {"cc_lambda1", r.ccLambda1}, {"cc_lambda1_closed_form", r.ccLambda1ClosedForm}, {"lambda1", r.lambda1},
+            {"lambda3_over_lambda1_squared", r.lambda3OverLambda1Squared}, {"matrix_size", r.matrixSize},
+            {"ring_windings", r.ringWindings}, {"annulus_faces", r.annulusFaces},
+            {"folded_annulus_faces", r.foldedAnnulusFaces}, {"normal_spread_degrees", r.normalSpreadDegrees}};
 }
 
 const char* yesNo(bool value) { return value ? "yes" : "no"; }
@@ -100,10 +75,10 @@ int runBoundaryAspect(const AnalyzeOptions& options) {
         std::printf("[\n");
         for (std::size_t k = 0; k < paper.size(); ++k)
             for (const auto& [name, a] : {std::pair{"paper", paper[k]}, std::pair{"smooth", smooth[k]}})
-                std::printf("%s{\"level\": %zu, \"boundary\": \"%s\", \"triangles\": %llu, \"worst_aspect\": %s, "
-                            "\"median_aspect\": %s}",
-                            k == 0 && std::string(name) == "paper" ? "" : ",\n", k + 1, name,
-                            (unsigned long long)a.triangles, jsonNumber(a.worst).c_str(), jsonNumber(a.median).c_str());
+                std::printf("%s%s", k == 0 && std::string(name) == "paper" ? "" : ",\n",
+                            jsonText(Json{{"level", k + 1}, {"boundary", name}, {"triangles", a.triangles},
+                                          {"worst_aspect", a.worst}, {"median_aspect", a.median}})
+                                .c_str());
         std::printf("\n]\n");
         return 0;
     }
@@ -128,10 +103,10 @@ std::vector<Index> parseValences(const std::string& text) {
         return InputError("--valence '" + text + "': " + why + " (examples: 2..16, 5, 2,3,8..10)");
     };
     const auto number = [&](const std::string& part) {
-        if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos)
+        if (part.empty() || part.find_first_not_of("0123456789") != std::string::npos)
             throw bad("'" + part + "' is not a valence");
-        const int n = std::stoi(part);
-        if (n < 2 || n > 64) throw bad("valences run from 2 to 64");
+        long long n = 0;  // decimal, as every numeric option (numbers.h): 010 is ten
+        if (!parseInteger(part, 2, 64, n).empty()) throw bad("valences run from 2 to 64");
         return Index(n);
     };
     std::size_t begin = 0;
@@ -176,7 +151,7 @@ int runAnalyze(const AnalyzeOptions& options) {
         for (Rules rules : rulesOf(options.rules)) {
             const ValenceReport r = analyzeValence(n, rules, valenceOptions);
             if (options.json) {
-                std::printf("%s%s", first ? "" : ",\n", jsonRecord(r).c_str());
+                std::printf("%s%s", first ? "" : ",\n", jsonText(jsonRecord(r)).c_str());
                 first = false;
                 continue;
             }
@@ -217,20 +192,18 @@ int runCompare(const CompareOptions& options) {
     };
     if (options.json) {
         const auto measures = [&](const MeshMeasures& m) {
-            return "{\"volume\": " + jsonNumber(m.volume) + ", \"area\": " + jsonNumber(m.area) + ", \"box_min\": [" +
-                   jsonNumber(m.lo[0]) + ", " + jsonNumber(m.lo[1]) + ", " + jsonNumber(m.lo[2]) + "], \"box_max\": [" +
-                   jsonNumber(m.hi[0]) + ", " + jsonNumber(m.hi[1]) + ", " + jsonNumber(m.hi[2]) +
-                   "], \"box_diagonal\": " + jsonNumber(m.diagonal()) + "}";
+            return Json{{"volume", m.volume}, {"area", m.area}, {"box_min", {m.lo[0], m.lo[1], m.lo[2]}},
+                        {"box_max", {m.hi[0], m.hi[1], m.hi[2]}}, {"box_diagonal", m.diagonal()}};
         };
-        std::printf("{\"input\": \"%s\", \"rules\": \"%s\", \"boundary\": \"%s\", \"ps_steps\": %d, \"cc_levels\": %d, \"ps_faces\": %u, "
-                    "\"cc_faces\": %u,\n \"input_measures\": %s,\n \"ps\": %s,\n \"cc\": %s,\n \"hausdorff\": %s, "
-                    "\"ps_to_cc_max\": %s, \"ps_to_cc_mean\": %s, \"cc_to_ps_max\": %s, \"cc_to_ps_mean\": %s, "
-                    "\"samples_each_way\": [%zu, %zu]}\n",
-                    options.input.c_str(), rulesName(rules), boundaryName(options.boundary), f.psSteps, f.ccLevels,
-                    f.psFaces, f.ccFaces, measures(f.input).c_str(), measures(f.ps).c_str(), measures(f.cc).c_str(),
-                    jsonNumber(f.hausdorff()).c_str(), jsonNumber(maxOf(f.psToCc)).c_str(),
-                    jsonNumber(meanOf(f.psToCc)).c_str(), jsonNumber(maxOf(f.ccToPs)).c_str(),
-                    jsonNumber(meanOf(f.ccToPs)).c_str(), f.psToCc.size(), f.ccToPs.size());
+        const Json json = {{"input", options.input}, {"rules", rulesName(rules)},
+                           {"boundary", boundaryName(options.boundary)}, {"ps_steps", f.psSteps},
+                           {"cc_levels", f.ccLevels}, {"ps_faces", f.psFaces}, {"cc_faces", f.ccFaces},
+                           {"input_measures", measures(f.input)}, {"ps", measures(f.ps)}, {"cc", measures(f.cc)},
+                           {"hausdorff", f.hausdorff()}, {"ps_to_cc_max", maxOf(f.psToCc)},
+                           {"ps_to_cc_mean", meanOf(f.psToCc)}, {"cc_to_ps_max", maxOf(f.ccToPs)},
+                           {"cc_to_ps_mean", meanOf(f.ccToPs)},
+                           {"samples_each_way", {f.psToCc.size(), f.ccToPs.size()}}};
+        std::printf("%s\n", jsonText(json).c_str());
     } else {
         std::printf("%s: P-S %d steps (%s rules, %s boundary) against Catmull-Clark %d level%s (OpenSubdiv)\n\n",
                     options.input.c_str(), f.psSteps, rulesName(rules), boundaryName(options.boundary), f.ccLevels,

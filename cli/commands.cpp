@@ -6,6 +6,7 @@
 
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
+#include "psub/output.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
 #if PSUB_HAVE_VULKAN
@@ -104,6 +105,9 @@ std::string header(const std::string& input, const std::string& what) {
     return "written by psub: " + what + "\nfrom " + input;
 }
 
+// Where the one-line summary goes: stdout, unless the mesh itself went there (-o -).
+std::FILE* summaryStream(const std::string& output) { return output == "-" ? stderr : stdout; }
+
 bool progressWanted() { return ::isatty(2) != 0; }
 
 // The finest faces as a Faces value (what formatObj writes).
@@ -178,8 +182,8 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") +
                              preprocessName(preprocess) + (o.rules == Rules::Robust ? ", robust rules" : "") +
                              (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
-    writeFileAtomic(o.output, formatObj(finest, positions, header(o.input, what)));
-    std::printf("%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
+    writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
+    std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
     return 0;
 }
@@ -193,8 +197,8 @@ int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
         refineCatmark(loaded.mesh.faces, loaded.mesh.positions, o.levels);
     const CatmarkLevel& finest = levels.back();
     const std::string what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + " levels";
-    writeFileAtomic(o.output, formatObj(finest.faces, finest.positions, header(o.input, what)));
-    std::printf("%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
+    writeOutput(o.output, formatObj(finest.faces, finest.positions, header(o.input, what)));
+    std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.faces.vertexCount, finest.faces.faceCount(), what.c_str(), msSince(start));
     return 0;
 }
@@ -387,10 +391,11 @@ void writeDemoMeshes(const DemoOptions& options, const std::string& model, const
     const std::string stem = std::filesystem::path(model).stem().string();
     const int ccLevels = std::max(1, options.levels / 2);
     const std::string psPath = options.outputDir + "/" + stem + "_ps" + std::to_string(options.levels) + ".obj";
-    writeFileAtomic(psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo")));
     const std::vector<CatmarkLevel> cc = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, ccLevels);
     const std::string ccPath = options.outputDir + "/" + stem + "_cc" + std::to_string(ccLevels) + ".obj";
-    writeFileAtomic(ccPath, formatObj(cc.back().faces, cc.back().positions, header(model, "Catmull-Clark demo")));
+    // Both or neither: a failure on the second leaves the first unwritten too.
+    writeOutputs({{psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo"))},
+                  {ccPath, formatObj(cc.back().faces, cc.back().positions, header(model, "Catmull-Clark demo"))}});
     std::printf("\nWrote %s and %s\n", psPath.c_str(), ccPath.c_str());
 }
 

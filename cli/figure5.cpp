@@ -7,6 +7,7 @@
 #include "render.h"
 
 #include "psub/catmark.h"
+#include "psub/output.h"
 
 #include <CLI/CLI.hpp>
 
@@ -187,7 +188,7 @@ CLI::App* addFigure5Command(CLI::App& app, Figure5Options& o) {
 
 int runFigure5(const Figure5Options& o) {
     const std::string data = dataDir();
-    std::filesystem::create_directories(o.outputDir);
+    makeOutputDirectory(o.outputDir);  // before the drawing, so a bad -o fails at once
     std::vector<Model> models;
     std::vector<FaceCounts> counts;
     for (const Row& row : kRows) {
@@ -195,16 +196,21 @@ int runFigure5(const Figure5Options& o) {
         model.mesh = loadChecked(data + "/" + row.name + ".obj", model.checked);
         counts.push_back(countFaces(model, 8));
     }
+    // Every picture is drawn and encoded first, then all are written as one (psub::writeOutputs):
+    // a failure leaves none of them.
+    std::vector<OutputFile> files;
+    const auto pathOf = [&](const std::string& name) { return (std::filesystem::path(o.outputDir) / name).string(); };
     try {
         VulkanContext context;
         for (const Model& model : models) {
-            const std::string out = (std::filesystem::path(o.outputDir) / ("figure5_" + std::string(model.row.name) + ".png")).string();
-            writePng(out, drawRow(context, model, o));
-            std::printf("%s\n", out.c_str());
+            const std::string out = pathOf("figure5_" + std::string(model.row.name) + ".png");
+            files.emplace_back(out, encodePng(out, drawRow(context, model, o)));
         }
-        const std::string table = (std::filesystem::path(o.outputDir) / "table1.png").string();
-        writePng(table, plotTable(counts, 8));
-        std::printf("%s\n\n", table.c_str());
+        const std::string table = pathOf("table1.png");
+        files.emplace_back(table, encodePng(table, plotTable(counts, 8)));
+        writeOutputs(files);
+        for (const OutputFile& file : files) std::printf("%s\n", file.first.c_str());
+        std::printf("\n");
     } catch (const VulkanError& e) {
         std::fprintf(stderr, "psub: error: figure5: %s\n", e.what());
         return 1;

@@ -5,6 +5,7 @@
 #include "play.h"
 #include "bench.h"
 #include "commands.h"
+#include "psub/output.h"
 #if PSUB_HAVE_RENDER
 #include "figure5.h"
 #include "render.h"
@@ -15,6 +16,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <map>
@@ -31,6 +33,8 @@ const std::map<std::string, Backend> kBackend = {
 
 // Levels are capped so closed-form counts stay in 64 bits; the memory guard stops far sooner.
 constexpr int kMaxLevels = 30;
+// Face-count options of psub bench: refined meshes are indexed in 32 bits.
+constexpr long long kMaxBenchFaces = 4294967295LL;
 
 void addPreprocess(CLI::App* command, Preprocess& target) {
     addChoice(command, "--preprocess", target, kPreprocess,
@@ -40,10 +44,50 @@ void addPreprocess(CLI::App* command, Preprocess& target) {
 }
 
 void addMaxMemory(CLI::App* command, std::uint64_t& target) {
-    command->add_option("--max-memory", target,
-                        "refuse work estimated to need more bytes than this (suffixes K M G; "
-                        "default 3/4 of physical memory)")
-        ->transform(CLI::AsSizeValue(false));
+    addBytes(command, "--max-memory", target,
+             "refuse work estimated to need more bytes than this (suffixes K M G T, powers of 1024; "
+             "default 3/4 of physical memory)");
+}
+
+// Edit distance (insertions, deletions, substitutions) between two words.
+std::size_t editDistance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t above = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = above;
+        }
+    }
+    return row[b.size()];
+}
+
+// A first argument that is not an option and names no subcommand: the list of subcommands
+// and the closest one, as a usage error. Empty when `word` is a subcommand.
+std::string unknownCommandMessage(const CLI::App& app, const std::string& word) {
+    std::string names, closest;
+    std::size_t best = std::string::npos;
+    for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) {
+        const std::string& name = command->get_name();
+        if (name == word) return {};
+        names += (names.empty() ? "" : ", ") + name;
+        const std::size_t distance = editDistance(word, name);
+        if (distance < best) best = distance, closest = name;
+    }
+    std::string message = "psub: unknown command '" + word + "'";
+    if (best <= std::max<std::size_t>(2, word.size() / 3)) message += " (did you mean '" + closest + "'?)";
+    return message + "; the commands are " + names + ". Run 'psub --help' for more.";
+}
+
+// Runs the parsed command; then standard output must have been written completely.
+template <class Run>
+int runAndFinish(Run&& run) {
+    const int status = run();
+    if (status == 0) finishStdout();
+    return status;
 }
 
 }  // namespace
@@ -60,11 +104,9 @@ int main(int argc, char** argv) {
     SubdivideOptions subdivide;
     CLI::App* sub = app.add_subcommand("subdivide", "Refine a mesh and write it as OBJ");
     sub->add_option("input", subdivide.input, "input mesh (.obj)")->required();
-    sub->add_option("-o,--output", subdivide.output, "output mesh (.obj), written atomically")->required();
-    sub->add_option("-l,--levels", subdivide.levels,
-                    "refinement steps (P-S steps after any preprocessing; 0 writes the "
-                    "preprocessed mesh)")
-        ->check(CLI::Range(0, kMaxLevels))->default_val(1);
+    sub->add_option("-o,--output", subdivide.output, "output mesh (.obj), written atomically; - for standard output")->required();
+    addInteger(sub, "-l,--levels", subdivide.levels, 0, kMaxLevels,
+               "refinement steps (P-S steps after any preprocessing; 0 writes the preprocessed mesh)", 1);
     addChoice(sub, "--scheme", subdivide.scheme, kSchemeNames,
               "ps: P-S; cc: Catmull-Clark through OpenSubdiv (edge-only boundary, no creases)", "ps");
     addPreprocess(sub, subdivide.preprocess);
@@ -92,8 +134,7 @@ int main(int argc, char** argv) {
     StatsOptions stats;
     CLI::App* st = app.add_subcommand("stats", "Count vertices, edges, faces per level, P-S beside Catmull-Clark");
     st->add_option("input", stats.input, "input mesh (.obj)")->required();
-    st->add_option("-l,--levels", stats.levels, "P-S steps to count")
-        ->check(CLI::Range(0, kMaxLevels))->default_val(4);
+    addInteger(st, "-l,--levels", stats.levels, 0, kMaxLevels, "P-S steps to count", 4);
     addPreprocess(st, stats.preprocess);
     addMaxMemory(st, stats.maxMemory);
     st->footer("Example:\n  psub stats data/cube.obj --levels 6");
@@ -101,8 +142,7 @@ int main(int argc, char** argv) {
     DemoOptions demo;
     CLI::App* de = app.add_subcommand("demo", "A first look: the bundled cow under P-S and Catmull-Clark");
     de->add_option("--model", demo.model, "another mesh instead of the bundled cow");
-    de->add_option("-l,--levels", demo.levels, "P-S steps (Catmull-Clark gets half as many)")
-        ->check(CLI::Range(1, 8))->default_val(4);
+    addInteger(de, "-l,--levels", demo.levels, 1, 8, "P-S steps (Catmull-Clark gets half as many)", 4);
     de->add_option("-o,--output-dir", demo.outputDir, "also write the refined meshes here")
         ->check(CLI::ExistingDirectory);
     de->footer("Example:\n  psub demo\n  psub demo --output-dir /tmp --levels 2");
@@ -128,15 +168,12 @@ int main(int argc, char** argv) {
                  "a JSON array, one record per (valence, rules): n, rules, eigenvalues (the leading 6, "
                  "descending by modulus, each [re, im]), c1_necessary, characteristic_map_injective, "
                  "cc_lambda1, and more");
-    an->add_option("--rings", analyze.rings, "control rings of the characteristic map check")
-        ->check(CLI::Range(4, 10))->default_val(8);
-    an->add_option("--tangent-levels", analyze.levels, "two-step levels of the tangent-plane check")
-        ->check(CLI::Range(1, 40))->default_val(10);
+    addInteger(an, "--rings", analyze.rings, 4, 10, "control rings of the characteristic map check", 8);
+    addInteger(an, "--tangent-levels", analyze.levels, 1, 40, "two-step levels of the tangent-plane check", 10);
     an->add_option("--boundary-aspect", analyze.boundaryModel,
                    "instead: the shape of the triangles along this mesh's boundary after each P-S step, "
                    "--boundary paper beside smooth");
-    an->add_option("--boundary-levels", analyze.boundaryLevels, "P-S steps of --boundary-aspect")
-        ->check(CLI::Range(1, 16))->default_val(11);
+    addInteger(an, "--boundary-levels", analyze.boundaryLevels, 1, 16, "P-S steps of --boundary-aspect", 11);
     an->footer("For an interior vertex of valence n surrounded by quads, builds the two-step P-S matrix from the\n"
                "engine's stencil tables, and Catmull-Clark's from OpenSubdiv's. The paper's rules fail C1 at\n"
                "valence 2; --rules robust passes.\n"
@@ -148,14 +185,13 @@ int main(int argc, char** argv) {
     CLI::App* co = app.add_subcommand(
         "compare", "P-S after 2k steps against Catmull-Clark after k: volume, area, box, Hausdorff distance");
     co->add_option("input", compare.input, "input mesh (.obj)")->required();
-    co->add_option("-l,--levels", compare.levels, "P-S steps, even (Catmull-Clark gets half as many)")
-        ->check(CLI::Range(0, 12) & CLI::Validator(
+    addInteger(co, "-l,--levels", compare.levels, 0, 12, "P-S steps, even (Catmull-Clark gets half as many)", 2)
+        ->check(CLI::Validator(
                                         [](std::string& value) {
                                             const bool odd = !value.empty() && std::string("13579").find(value.back()) != std::string::npos;
                                             return odd ? std::string("must be even") : std::string();
                                         },
-                                        "EVEN"))
-        ->default_val(2);
+                                        "EVEN"));
     co->add_option("--rules", compare.rules, "P-S rules: paper or robust")
         ->check(CLI::IsMember({"paper", "robust"}))->default_val("paper");
     addChoice(co, "--boundary", compare.boundary, kBoundaryNames,
@@ -163,8 +199,7 @@ int main(int argc, char** argv) {
               "so the boundary is Catmull-Clark's",
               "paper");
     co->add_option("--plot", compare.plot, "also draw the comparison as a PNG here (ratios and distance histograms)");
-    co->add_option("--samples", compare.samples, "sample intervals per triangle edge for the distances")
-        ->check(CLI::Range(1, 16))->default_val(2);
+    addInteger(co, "--samples", compare.samples, 1, 16, "sample intervals per triangle edge for the distances", 2);
     co->add_flag("--json", compare.json, "print the numbers as one JSON object");
     co->footer("Distances: points sampled on every face of one mesh, nearest point on the other's triangles,\n"
                "both ways; Hausdorff is the larger maximum. P-S comes from the engine's tables (after the\n"
@@ -180,40 +215,31 @@ int main(int argc, char** argv) {
                    "plus a generated torus); torus:N generates an N x N quad torus");
     be->add_option("--json", benchOptions.jsonPath, "also write every measurement as JSON here");
     be->add_option("--plot", benchOptions.plotPath, "also draw per-frame time against refined faces (SVG)");
-    be->add_option("--frames", benchOptions.frames, "timed frames per configuration")
-        ->check(CLI::Range(1, 1000000))->default_val(30);
-    be->add_option("--warmup", benchOptions.warmup, "untimed frames before them")
-        ->check(CLI::Range(0, 1000))->default_val(3);
-    be->add_option("--frame-budget", benchOptions.frameBudgetSeconds,
-                   "seconds per configuration: beyond it, fewer frames (at least 10) are timed")
-        ->check(CLI::PositiveNumber)->default_val(6);
+    addInteger(be, "--frames", benchOptions.frames, 1, 1000000, "timed frames per configuration", 30);
+    addInteger(be, "--warmup", benchOptions.warmup, 0, 1000, "untimed frames before them", 3);
+    addReal(be, "--frame-budget", benchOptions.frameBudgetSeconds, 0.001, 86400,
+            "seconds per configuration: beyond it, fewer frames (at least 10) are timed", 6);
     be->add_flag("--quick", benchOptions.quick, "smallest size per model and 5 frames (a smoke test)");
-    be->add_option("-l,--levels", benchOptions.levels,
-                   "Catmull-Clark levels 1..N (small models go on while they have at most "
-                   "--extend-below faces)")
-        ->check(CLI::Range(1, 10))->default_val(3);
-    be->add_option("--extend-below", benchOptions.extendBelow,
-                   "keep adding levels beyond --levels while the refined mesh has at most this many faces")
-        ->default_val(200000);
-    be->add_option("--max-faces", benchOptions.maxFaces, "skip sizes with more refined faces than this")
-        ->check(CLI::PositiveNumber)->default_val(20000000);
-    be->add_option("--max-factorized-faces", benchOptions.maxFactorizedFaces,
-                   "build PSub's factorized table only up to this many refined faces (it grows with "
-                   "the levels: about 350 B per vertex at 6 P-S levels)")
-        ->default_val(5000000);
-    be->add_option("--torus", benchOptions.torus,
-                   "the generated torus has N x N quads (0: none); only with the default models")
+    addInteger(be, "-l,--levels", benchOptions.levels, 1, 10,
+               "Catmull-Clark levels 1..N (small models go on while they have at most --extend-below faces)", 3);
+    addInteger(be, "--extend-below", benchOptions.extendBelow, 0, kMaxBenchFaces,
+               "keep adding levels beyond --levels while the refined mesh has at most this many faces",
+               decltype(benchOptions.extendBelow)(200000));
+    addInteger(be, "--max-faces", benchOptions.maxFaces, 1, kMaxBenchFaces,
+               "skip sizes with more refined faces than this", decltype(benchOptions.maxFaces)(20000000));
+    addInteger(be, "--max-factorized-faces", benchOptions.maxFactorizedFaces, 0, kMaxBenchFaces,
+               "build PSub's factorized table only up to this many refined faces (it grows with "
+               "the levels: about 350 B per vertex at 6 P-S levels)",
+               decltype(benchOptions.maxFactorizedFaces)(5000000));
+    addInteger(be, "--torus", benchOptions.torus, 0, 4096,
+               "the generated torus has N x N quads (0: none); only with the default models", 512)
         ->check(CLI::Validator(
             [](std::string& value) {
-                int n = -1;
-                try {
-                    n = std::stoi(value);
-                } catch (const std::exception&) {
-                }
-                return n == 0 || (n >= 3 && n <= 4096) ? std::string() : "expected 0 or 3..4096";
+                long long n = 0;
+                parseInteger(value, 0, 4096, n);
+                return n == 0 || n >= 3 ? std::string() : std::string("expected 0 or 3..4096");
             },
-            "0 or 3..4096"))
-        ->default_val(512);
+            ""));
     be->footer(
         "What is measured, per model and per matched size (P-S levels with the face count of "
         "Catmull-Clark level k):\n"
@@ -247,12 +273,21 @@ int main(int argc, char** argv) {
     CLI::App* vi = addViewCommand(app, viewOptions);
 #endif
 
+    if (argc > 1 && argv[1][0] != '-') {
+        const std::string message = unknownCommandMessage(app, argv[1]);
+        if (!message.empty()) {
+            std::fprintf(stderr, "%s\n", message.c_str());
+            return 2;
+        }
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::Success& e) {
         return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        app.exit(e);
+    } catch (const CLI::ParseError& e) {  // one line, naming the option
+        std::string message = e.what();
+        std::replace(message.begin(), message.end(), '\n', ' ');
+        std::fprintf(stderr, "psub: usage error: %s (see psub COMMAND --help)\n", message.c_str());
         return 2;
     }
     if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--preprocess")) {
@@ -272,7 +307,7 @@ int main(int argc, char** argv) {
         return 2;
     }
 
-    try {
+    const auto runCommand = [&]() -> int {
         if (sub->parsed()) return runSubdivide(subdivide);
         if (st->parsed()) return runStats(stats);
         if (de->parsed()) return runDemo(demo);
@@ -287,6 +322,9 @@ int main(int argc, char** argv) {
         if (vi->parsed()) return runView(viewOptions);
 #endif
         if (be->parsed()) {
+            // The outputs are checked now, not after a run of minutes.
+            if (!benchOptions.jsonPath.empty()) checkOutput(benchOptions.jsonPath);
+            if (!benchOptions.plotPath.empty()) checkOutput(benchOptions.plotPath);
             benchOptions.dataDir = dataDir();
             for (int i = 0; i < argc; ++i) {
                 const std::string arg = argv[i];
@@ -295,12 +333,23 @@ int main(int argc, char** argv) {
             }
             return bench::runBench(benchOptions);
         }
+        return 2;
+    };
+
+    try {
+        return runAndFinish([&] { return runCommand(); });
     } catch (const InputError& e) {
+        std::fprintf(stderr, "psub: error: %s\n", e.what());
+        return 1;
+    } catch (const OutputError& e) {
         std::fprintf(stderr, "psub: error: %s\n", e.what());
         return 1;
     } catch (const std::bad_alloc&) {
         std::fprintf(stderr, "psub: error: out of memory\n");
         return 1;
+    } catch (const std::exception& e) {  // a last resort: every known failure has its own message
+        std::fprintf(stderr, "psub: error: %s\n", e.what());
+        return 1;
     }
-    return 2;
 }
+

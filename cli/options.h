@@ -1,11 +1,15 @@
-// Option helpers shared by the psub commands (CLI11): choices among named values, image sizes
-// written WIDTHxHEIGHT, and the names of the engine's choices.
+// Option helpers shared by the psub commands (CLI11): choices among named values, and every
+// numeric option (integers, reals, byte counts, WIDTHxHEIGHT sizes) parsed by the one policy of
+// numbers.h, so a bad value is a usage error naming the option; the names of the engine's choices.
 #pragma once
 
 #include "commands.h"
+#include "numbers.h"
 
 #include <CLI/CLI.hpp>
 
+#include <climits>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <map>
@@ -35,29 +39,82 @@ CLI::Option* addChoice(CLI::App* command, const std::string& name, Enum& target,
         ->default_str(defaultName);
 }
 
+// A validator running one of numbers.h's parsers on the option's text.
+template <class Parse>
+CLI::Validator numberCheck(Parse parse, const std::string& description) {
+    return CLI::Validator([parse](std::string& value) { return parse(value); }, description);
+}
+
+// An integer option in least..most; `target` starts at `initial`.
+template <class Int>
+CLI::Option* addInteger(CLI::App* command, const std::string& name, Int& target, long long least, long long most,
+                        const std::string& help, Int initial) {
+    target = initial;
+    return command
+        ->add_option_function<std::string>(
+            name,
+            [&target](const std::string& value) {
+                long long parsed = 0;
+                parseInteger(value, LLONG_MIN, LLONG_MAX, parsed);
+                target = Int(parsed);
+            },
+            help)
+        ->check(numberCheck(
+            [least, most](const std::string& value) {
+                long long parsed = 0;
+                return parseInteger(value, least, most, parsed);
+            },
+            rangeText(least, most)))
+        ->type_name("INT")
+        ->default_str(std::to_string(initial));
+}
+
+// A finite real option in least..most; `target` starts at `initial`.
+inline CLI::Option* addReal(CLI::App* command, const std::string& name, double& target, double least, double most,
+                            const std::string& help, double initial) {
+    target = initial;
+    return command
+        ->add_option_function<std::string>(
+            name,
+            [&target](const std::string& value) { parseReal(value, -HUGE_VAL, HUGE_VAL, target); }, help)
+        ->check(numberCheck(
+            [least, most](const std::string& value) {
+                double parsed = 0;
+                return parseReal(value, least, most, parsed);
+            },
+            realText(least) + ".." + realText(most)))
+        ->type_name("NUMBER")
+        ->default_str(realText(initial));
+}
+
+// A byte count (512M, 3G, ...); `target` keeps its value when the option is absent.
+inline CLI::Option* addBytes(CLI::App* command, const std::string& name, std::uint64_t& target,
+                             const std::string& help) {
+    return command
+        ->add_option_function<std::string>(
+            name, [&target](const std::string& value) { parseBytes(value, target); }, help)
+        ->check(numberCheck(
+            [](const std::string& value) {
+                std::uint64_t parsed = 0;
+                return parseBytes(value, parsed);
+            },
+            ""))
+        ->type_name("BYTES");
+}
+
 // WIDTHxHEIGHT, each in least..16384, into width and height.
 inline CLI::Option* addSize(CLI::App* command, const std::string& name, std::uint32_t& width,
                             std::uint32_t& height, const std::string& help, unsigned least,
                             const std::string& defaultText) {
-    const auto parse = [](const std::string& value, unsigned& w, unsigned& h) {
-        char x = 0, extra = 0;
-        return std::sscanf(value.c_str(), "%u%c%u%c", &w, &x, &h, &extra) == 3 && x == 'x';
-    };
     return command
         ->add_option_function<std::string>(
             name,
-            [&width, &height, parse](const std::string& value) {
-                unsigned w = 0, h = 0;
-                parse(value, w, h);
-                width = w, height = h;
-            },
+            [&width, &height, least](const std::string& value) { parseSize(value, least, 16384, width, height); },
             help)
-        ->check(CLI::Validator(
-            [least, parse](std::string& value) {
-                unsigned w = 0, h = 0;
-                return parse(value, w, h) && w >= least && h >= least && w <= 16384 && h <= 16384
-                           ? std::string()
-                           : "expected WIDTHxHEIGHT, each " + std::to_string(least) + "..16384 (e.g. 1280x720)";
+        ->check(numberCheck(
+            [least](const std::string& value) {
+                std::uint32_t w = 0, h = 0;
+                return parseSize(value, least, 16384, w, h);
             },
             ""))
         ->type_name("WxH")
@@ -66,12 +123,18 @@ inline CLI::Option* addSize(CLI::App* command, const std::string& name, std::uin
 
 // --msaa: samples per pixel of the offscreen pictures (lowered to what the device supports).
 inline CLI::Option* addSamples(CLI::App* command, std::uint32_t& samples) {
-    return command
-        ->add_option("--msaa", samples,
-                     "samples per pixel, 1, 2, 4 or 8 (lowered to what the device has; 1 is about 4x "
-                     "faster on lavapipe)")
-        ->check(CLI::IsMember({1u, 2u, 4u, 8u}))
-        ->default_val(4);
+    return addInteger(command, "--msaa", samples, 1, 8,
+                      "samples per pixel, 1, 2, 4 or 8 (lowered to what the device has; 1 is about 4x "
+                      "faster on lavapipe)",
+                      std::uint32_t(4))
+        ->check(numberCheck(
+            [](const std::string& value) {
+                long long parsed = 0;
+                return parseInteger(value, 1, 8, parsed).empty() && (parsed & (parsed - 1)) == 0
+                           ? std::string()
+                           : std::string("expected 1, 2, 4 or 8");
+            },
+            ""));
 }
 
 }  // namespace psub::cli

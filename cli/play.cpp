@@ -3,11 +3,13 @@
 // evaluate, normals, (render, readback); each stage timed, median / p95 / max reported.
 // The frame loop allocates nothing and creates no Vulkan object.
 #include "play.h"
+#include "json.h"
 
 #include "options.h"
 
 #include "psub/animation.h"
 #include "psub/evaluator.h"
+#include "psub/output.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
 #if PSUB_HAVE_VULKAN
@@ -309,7 +311,6 @@ int prepare(Playback& p) {
     }
 #if PSUB_HAVE_RENDER
     if (p.rendering()) {
-        std::filesystem::create_directories(o.renderDir);
         RenderOptions ro;
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
@@ -331,16 +332,13 @@ int prepare(Playback& p) {
 // ---------------------------------------------------------------------------------------
 // Reports
 
-std::string stagesJson(const Timings& t) {
-    std::string out = "{";
+Json stagesJson(const Timings& t) {
+    Json stages = Json::object();
     for (int s = 0; s < kStageCount; ++s) {
         const Summary m = summarize(t.stages[std::size_t(s)]);
-        char text[160];
-        std::snprintf(text, sizeof text, "%s\"%s\": {\"median_ms\": %.6g, \"p95_ms\": %.6g, \"max_ms\": %.6g}",
-                      s ? ", " : "", kStageNames[std::size_t(s)], m.median, m.p95, m.max);
-        out += text;
+        stages[kStageNames[std::size_t(s)]] = {{"median_ms", m.median}, {"p95_ms", m.p95}, {"max_ms", m.max}};
     }
-    return out + "}";
+    return stages;
 }
 
 double framesPerSecond(const Timings& t) {
@@ -349,24 +347,13 @@ double framesPerSecond(const Timings& t) {
     return total > 0 ? 1000.0 * double(t.frames.size()) / total : 0.0;
 }
 
-std::string jsonEscaped(const std::string& text) {
-    std::string out;
-    for (char c : text) {
-        if (c == '"' || c == '\\') out += '\\';
-        if (static_cast<unsigned char>(c) >= 0x20) out += c;
-    }
-    return out;
-}
-
-// ", \"vulkan_validation_messages\": N" when a Vulkan context ran with the validation layer.
-std::string validationJson(const Playback& p) {
+// The "vulkan_validation_messages" count when a Vulkan context ran with the validation layer.
+void addValidation(const Playback& p, Json& json) {
 #if PSUB_HAVE_VULKAN
-    if (p.context && p.context->validationEnabled())
-        return ", \"vulkan_validation_messages\": " + std::to_string(p.context->validationMessageCount());
+    if (p.context && p.context->validationEnabled()) json["vulkan_validation_messages"] = p.context->validationMessageCount();
 #else
-    (void)p;
+    (void)p, (void)json;
 #endif
-    return "";
 }
 
 void report(const Playback& p, const Timings& t) {
@@ -374,16 +361,15 @@ void report(const Playback& p, const Timings& t) {
     const std::uint64_t faces = p.refinement.surface.faceOffsets.size() - 1;
     const char* backend = o.backend == Backend::Vulkan ? "vulkan" : "cpu";
     if (o.json) {
-        std::printf("{\"input\": \"%s\", \"animation\": \"%s\", \"levels\": %d, \"refined_faces\": %llu, "
-                    "\"refined_vertices\": %u, \"frames\": %zu, \"fps\": %.6g, \"backend\": \"%s\", \"device\": \"%s\", "
-                    "\"render\": %s, \"stages\": %s, \"verified_frames\": %d, \"max_relative_error\": %.3g%s}\n",
-                    jsonEscaped(o.input).c_str(), jsonEscaped(p.animated.name).c_str(), o.levels,
-                    (unsigned long long)faces, p.refinement.perLevel.refinedCount(), t.frames.size(), framesPerSecond(t),
-                    backend, jsonEscaped(p.device).c_str(),
-                    p.rendering() ? ("{\"width\": " + std::to_string(o.width) + ", \"height\": " + std::to_string(o.height) + "}").c_str()
-                                  : "null",
-                    stagesJson(t).c_str(), p.verifier ? p.verifier->frames : 0, p.verifier ? p.verifier->maxError : 0.0,
-                    validationJson(p).c_str());
+        Json json = {{"input", o.input}, {"animation", p.animated.name}, {"levels", o.levels},
+                     {"refined_faces", faces}, {"refined_vertices", p.refinement.perLevel.refinedCount()},
+                     {"frames", t.frames.size()}, {"fps", framesPerSecond(t)}, {"backend", backend},
+                     {"device", p.device},
+                     {"render", p.rendering() ? Json{{"width", o.width}, {"height", o.height}} : Json(nullptr)},
+                     {"stages", stagesJson(t)}, {"verified_frames", p.verifier ? p.verifier->frames : 0},
+                     {"max_relative_error", p.verifier ? p.verifier->maxError : 0.0}};
+        addValidation(p, json);
+        std::printf("%s\n", jsonText(json).c_str());
         return;
     }
     std::printf("%s: %s, %d P-S step%s: %u control points -> %llu faces, %u vertices; %s on %s\n", o.input.c_str(),
@@ -419,13 +405,12 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     CLI::App* pl = app.add_subcommand("play", "Play an animated control mesh, refined every frame; time each stage");
     pl->add_option("input", o.input, "control mesh: .obj, or .gltf / .glb with skinning, morph targets and clips")
         ->required();
-    pl->add_option("-l,--levels", o.levels, "P-S steps")->check(CLI::Range(0, 30))->default_val(3);
-    pl->add_option("-f,--frames", o.frames, "frames to play")->check(CLI::Range(1, 1000000))->default_val(120);
+    addInteger(pl, "-l,--levels", o.levels, 0, 30, "P-S steps", 3);
+    addInteger(pl, "-f,--frames", o.frames, 1, 1000000, "frames to play", 120);
     pl->add_option("--anim", o.animation,
                    "wave, twist or bend (procedural), or the name of a glTF clip (default: a glTF file's first "
                    "clip, else wave)");
-    pl->add_option("--anim-fps", o.animationFps, "animation time per frame is 1/this seconds")
-        ->check(CLI::Range(1.0, 10000.0))->default_val(30);
+    addReal(pl, "--anim-fps", o.animationFps, 1, 10000, "animation time per frame is 1/this seconds", 30);
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (beyond the paper)", "paper");
@@ -455,6 +440,7 @@ int runPlay(const PlayOptions& o) {
     Animated animated = loadAnimated(o);
     Playback p(o, animated);
     refineAnimated(p);
+    if (p.rendering()) makeOutputDirectory(o.renderDir);
     if (const int status = prepare(p)) return status;
     // One untimed warm-up frame: command buffers of this kind of frame are recorded and
     // lavapipe compiles its shaders now, not inside the loop.

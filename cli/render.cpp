@@ -118,7 +118,8 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
         readbackMs.push_back(renderer.lastTimes().readbackMs);
     }
     writePng(o.output, image);
-    std::printf("%s: %ux%u, %u faces (%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
+    // The summary goes to stderr when the PNG itself went to standard output (-o -).
+    std::fprintf(o.output == "-" ? stderr : stdout, "%s: %ux%u, %u faces (%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
                 o.output.c_str(), o.width, o.height, std::uint32_t(d.surface.faceOffsets.size() - 1), d.what.c_str(),
                 renderer.triangleCount(),
                 renderer.lineCount() ? (" + " + std::to_string(renderer.lineCount()) + " lines").c_str() : "",
@@ -132,9 +133,8 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
 CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     CLI::App* re = app.add_subcommand("render", "Draw a refined mesh offscreen with Vulkan into a PNG");
     re->add_option("input", o.input, "input mesh (.obj)")->required();
-    re->add_option("-o,--output", o.output, "output image (.png), written atomically")->required();
-    re->add_option("-l,--levels", o.levels, "refinement steps (P-S) or levels (--scheme cc)")
-        ->check(CLI::Range(0, 30))->default_val(4);
+    re->add_option("-o,--output", o.output, "output image (.png), written atomically; - for standard output")->required();
+    addInteger(re, "-l,--levels", o.levels, 0, 30, "refinement steps (P-S) or levels (--scheme cc)", 4);
     addChoice(re, "--scheme", o.scheme, kSchemeNames, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
     addChoice(re, "--wireframe", o.wireframe, kWireframe,
               "none; refined: the refined faces' edges; control: the input faces' edges (the cage)", "none");
@@ -142,8 +142,7 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addSamples(re, o.samples);
     addChoice(re, "--backend", o.backend, kCpuOrVulkan,
               "where positions and normals are evaluated: cpu or vulkan (drawing is always Vulkan)", "cpu");
-    re->add_option("--frames", o.frames, "draw this many times and report the median render and readback times")
-        ->check(CLI::Range(1, 10000))->default_val(1);
+    addInteger(re, "--frames", o.frames, 1, 10000, "draw this many times and report the median render and readback times", 1);
     re->footer("Needs a Vulkan device (Mesa's lavapipe will do; no display). The camera looks from the front,\n"
                "a bit right and above, and frames what is drawn (the surface, and the cage with\n"
                "--wireframe control).\n"

@@ -1,8 +1,7 @@
-// Images on the CPU: pixels, PNG files (libpng's simplified API; written atomically by
-// topology's writeFileAtomic),
+// Images on the CPU: pixels, PNG files (libpng's simplified API; written by psub::output),
 // captions drawn from stb_easy_font's quads, and panels side by side with captions.
 #include "psub/image.h"
-#include "psub/topology.h"
+#include "psub/output.h"
 
 #include <png.h>
 #include <stb_easy_font.h>
@@ -26,7 +25,9 @@ std::size_t offsetOf(const Image& image, std::uint32_t x, std::uint32_t y) {
     throw std::runtime_error(path + ": cannot write: " + why);
 }
 
-std::vector<unsigned char> encodePng(const std::string& path, const Image& image) {
+}  // namespace
+
+std::string encodePng(const std::string& path, const Image& image) {
     if (image.rgba.size() != 4 * std::size_t(image.width) * image.height || image.width == 0 || image.height == 0)
         throw std::invalid_argument(path + ": the image's pixels do not match its size " +
                                     std::to_string(image.width) + "x" + std::to_string(image.height));
@@ -38,14 +39,12 @@ std::vector<unsigned char> encodePng(const std::string& path, const Image& image
     png_alloc_size_t size = 0;
     if (!png_image_write_to_memory(&png, nullptr, &size, 0, image.rgba.data(), 0, nullptr))
         failWrite(path, std::string("libpng: ") + png.message);
-    std::vector<unsigned char> bytes(size);
+    std::string bytes(size, '\0');
     if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, image.rgba.data(), 0, nullptr))
         failWrite(path, std::string("libpng: ") + png.message);
     bytes.resize(size);
     return bytes;
 }
-
-}  // namespace
 
 Rgba Image::pixel(std::uint32_t x, std::uint32_t y) const {
     assert(x < width && y < height);
@@ -67,8 +66,7 @@ Image filledImage(std::uint32_t width, std::uint32_t height, Rgba colour) {
 }
 
 void writePng(const std::string& path, const Image& image) {
-    const std::vector<unsigned char> bytes = encodePng(path, image);
-    writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    writeOutput(path, encodePng(path, image));
 }
 
 void fillRect(Image& image, int x0, int y0, int x1, int y1, Rgba colour) {

@@ -88,7 +88,7 @@ struct Presenter::Impl {
 };
 
 void Presenter::Impl::waitIdle() {
-    std::lock_guard guard(context.lock);
+    std::lock_guard guard(context.submitLock);
     VK_CHECK(vkQueueWaitIdle(context.queue));
 }
 
@@ -347,7 +347,7 @@ bool Presenter::present(const Image& image, bool capture, Rgba background) {
     presentInfo.pImageIndices = &index;
     VkResult presented;
     {
-        std::lock_guard guard(p.context.lock);
+        std::lock_guard guard(p.context.submitLock);
         VK_CHECK(vkQueueSubmit(p.context.queue, 1, &submit, slot.fence));
         presented = vkQueuePresentKHR(p.context.queue, &presentInfo);
     }

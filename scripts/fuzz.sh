@@ -24,4 +24,12 @@ for target in fuzz_obj fuzz_refine fuzz_gltf; do
     -max_len=16384 -print_final_stats=1 -artifact_prefix=build-fuzz/artifacts/$target- \
     "$corpus" "${seeds[@]}" 2>&1 | tail -n 12
 done
+
+# The CLI's option parsing, with its own dictionary of option tokens.
+cmake --build build-fuzz -j "$(nproc)" --target fuzz_options
+mkdir -p build-fuzz/corpus/fuzz_options
+echo "fuzz: fuzz_options for ${seconds}s"
+build-fuzz/tests/fuzz/fuzz_options -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
+  -print_final_stats=1 -dict=tests/fuzz/options.dict -artifact_prefix=build-fuzz/artifacts/fuzz_options- \
+  build-fuzz/corpus/fuzz_options tests/fuzz/options-seeds 2>&1 | tail -n 12
 echo "fuzz: no crash, leak or timeout"

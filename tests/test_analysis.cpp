@@ -4,6 +4,7 @@
 // fidelity measures against hand-computed values.
 #include "psub/analysis.h"
 #include "psub/evaluator.h"
+#include "psub/output.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
 #include "test_support.h"
@@ -328,7 +329,7 @@ TEST(Fidelity, PlotIsAPngOfTheAdvertisedSize) {
     };
     EXPECT_EQ(be32(16), 960u);
     EXPECT_EQ(be32(20), 460u);
-    EXPECT_THROW(writeFidelityPlot("/nonexistent-dir/x.png", f, "x"), InputError);
+    EXPECT_THROW(writeFidelityPlot("/nonexistent-dir/x.png", f, "x"), OutputError);
 }
 
 // ---- The commands

@@ -1,5 +1,5 @@
 // OBJ reading (every face-entry form, ignored statements, line-accurate errors, truncated
-// input) and writing (formatObj round trip, atomic file replacement).
+// input) and writing (formatObj round trip; tests/test_output.cpp tests the file writing).
 #include "psub/topology.h"
 #include "test_support.h"
 
@@ -50,13 +50,6 @@ std::string readText(const fs::path& path) {
 
 void writeText(const fs::path& path, const std::string& text) {
     std::ofstream(path, std::ios::binary) << text;
-}
-
-std::vector<std::string> entriesOf(const fs::path& dir) {
-    std::vector<std::string> names;
-    for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
-    std::sort(names.begin(), names.end());
-    return names;
 }
 
 // A fresh directory under the test temp dir, removed with everything in it.
@@ -474,96 +467,6 @@ TEST(ObjWriter, RoundTripKeepsPolygonFacesOfEverySize) {
     EXPECT_EQ(again.faces.vertexCount, 9u);
     EXPECT_EQ(facesOf(again.faces), facesOf(faces));
     EXPECT_EQ(again.positions, positions);
-}
-
-TEST(ObjAtomicWrite, WritesTheFileAndNoTemporary) {
-    TempDir dir;
-    const fs::path file = dir.path() / "out.obj";
-    writeFileAtomic(file.string(), "v 0 0 0\n");
-    EXPECT_EQ(readText(file), "v 0 0 0\n");
-    EXPECT_EQ(entriesOf(dir.path()), std::vector<std::string>{"out.obj"});
-}
-
-TEST(ObjAtomicWrite, WrittenFileHasUmaskPermissionsNotPrivateTemporaryOnes) {
-    TempDir dir;
-    const fs::path file = dir.path() / "out.obj";
-    const mode_t previous = ::umask(022);
-    writeFileAtomic(file.string(), "x");
-    ::umask(previous);
-    struct stat info {};
-    ASSERT_EQ(::stat(file.c_str(), &info), 0);
-    EXPECT_EQ(info.st_mode & 0777, 0644u);
-}
-
-TEST(ObjAtomicWrite, WritesAnEmptyText) {
-    TempDir dir;
-    const fs::path file = dir.path() / "empty.obj";
-    writeFileAtomic(file.string(), "");
-    ASSERT_TRUE(fs::exists(file));
-    EXPECT_EQ(fs::file_size(file), 0u);
-}
-
-TEST(ObjAtomicWrite, MissingDirectoryThrowsAndLeavesNothing) {
-    TempDir dir;
-    const fs::path file = dir.path() / "missing" / "out.obj";
-    const std::string message = inputErrorOf([&] { writeFileAtomic(file.string(), "v 0 0 0\n"); });
-    EXPECT_TRUE(contains(message, file.string())) << message;
-    EXPECT_FALSE(fs::exists(dir.path() / "missing"));
-    EXPECT_TRUE(entriesOf(dir.path()).empty());
-}
-
-TEST(ObjAtomicWrite, ParentThatIsARegularFileThrowsAndLeavesNothing) {
-    // Fails for root too, unlike a read-only directory.
-    TempDir dir;
-    const fs::path parent = dir.path() / "plain";
-    writeText(parent, "not a directory");
-    const fs::path file = parent / "out.obj";
-    const std::string message = inputErrorOf([&] { writeFileAtomic(file.string(), "v 0 0 0\n"); });
-    EXPECT_TRUE(contains(message, file.string())) << message;
-    EXPECT_EQ(entriesOf(dir.path()), std::vector<std::string>{"plain"});
-    EXPECT_EQ(readText(parent), "not a directory");
-}
-
-TEST(ObjAtomicWrite, FailedRenameRemovesTheTemporary) {
-    // The temporary is created and written, then the rename onto a directory fails.
-    TempDir dir;
-    const fs::path target = dir.path() / "taken";
-    fs::create_directory(target);
-    const std::string message = inputErrorOf([&] { writeFileAtomic(target.string(), "v 0 0 0\n"); });
-    EXPECT_TRUE(contains(message, target.string())) << message;
-    EXPECT_EQ(entriesOf(dir.path()), std::vector<std::string>{"taken"});
-    EXPECT_TRUE(fs::is_directory(target));
-    EXPECT_TRUE(fs::is_empty(target));
-}
-
-TEST(ObjAtomicWrite, WritesAFileWhoseNameIsNearTheLengthLimit) {
-    // 254 bytes is a legal name (NAME_MAX 255); the temporary beside it must not be longer.
-    TempDir dir;
-    const std::string name = std::string(250, 'n') + ".obj";
-    const fs::path file = dir.path() / name;
-    writeFileAtomic(file.string(), "v 0 0 0\n");
-    EXPECT_EQ(readText(file), "v 0 0 0\n");
-    EXPECT_EQ(entriesOf(dir.path()), std::vector<std::string>{name});
-}
-
-TEST(ObjAtomicWrite, OverwritingReplacesTheWholeFile) {
-    TempDir dir;
-    const fs::path file = dir.path() / "out.obj";
-    writeText(file, std::string(10000, 'x'));
-    writeFileAtomic(file.string(), "short\n");
-    EXPECT_EQ(readText(file), "short\n");
-    EXPECT_EQ(entriesOf(dir.path()), std::vector<std::string>{"out.obj"});
-}
-
-TEST(ObjAtomicWrite, WrittenMeshReadsBack) {
-    TempDir dir;
-    const fs::path file = dir.path() / "square.obj";
-    Faces faces;
-    faces.vertexCount = 4;
-    faces.addFace(std::vector<Index>{0, 1, 2});
-    faces.addFace(std::vector<Index>{0, 2, 3});
-    writeFileAtomic(file.string(), formatObj(faces, kSquarePositions, "square"));
-    expectSquare(readObj(file.string()));
 }
 
 TEST(ObjReader, SkipsUtf8ByteOrderMark) {

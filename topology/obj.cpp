@@ -1,4 +1,4 @@
-// OBJ reading (fast, line-accurate errors) and writing (atomic: temporary file + rename).
+// OBJ reading (fast, line-accurate errors) and formatting (psub::output writes the text).
 #include "psub/topology.h"
 
 #include <cerrno>
@@ -224,40 +224,6 @@ std::string formatObj(const Faces& faces, std::span<const double> positions,
         out += '\n';
     }
     return out;
-}
-
-void writeFileAtomic(const std::string& path, std::string_view text) {
-    // The temporary sits in the same directory (so rename is atomic) under a short name, so
-    // that an output name near the file-system limit still works.
-    const std::size_t slash = path.rfind('/');
-    std::string temp = (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + ".psub-XXXXXX";
-    const int fd = ::mkstemp(temp.data());
-    if (fd < 0) throw InputError(path + ": cannot write: " + std::strerror(errno));
-    auto fail = [&](const char* what) {
-        const int error = errno;
-        ::close(fd);
-        ::unlink(temp.c_str());
-        throw InputError(path + ": cannot " + what + ": " + std::strerror(error));
-    };
-    for (std::size_t done = 0; done < text.size();) {
-        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) fail("write");
-        done += std::size_t(n);
-    }
-    const mode_t mask = ::umask(0);
-    ::umask(mask);
-    if (::fchmod(fd, 0666 & ~mask) != 0 || ::fsync(fd) != 0) fail("write");
-    if (::close(fd) != 0) {
-        const int error = errno;
-        ::unlink(temp.c_str());
-        throw InputError(path + ": cannot write: " + std::strerror(error));
-    }
-    if (std::rename(temp.c_str(), path.c_str()) != 0) {
-        const int error = errno;
-        ::unlink(temp.c_str());
-        throw InputError(path + ": cannot write: " + std::strerror(error));
-    }
 }
 
 }  // namespace psub

@@ -178,7 +178,8 @@ std::vector<BoundaryAspect> boundaryAspectByLevel(const Mesh& mesh, const Connec
 
 // A PNG (libpng) of `fidelity`: bars of P-S / Catmull-Clark for volume, area and box
 // diagonal, and the histograms of both distance directions relative to the box diagonal,
-// titled `title`. Written atomically; throws InputError when the file cannot be written.
+// titled `title`. Written by psub::writePng (atomic for a regular file); throws a std::runtime_error
+// (psub::OutputError when writing fails) naming the path.
 void writeFidelityPlot(const std::string& path, const Fidelity& fidelity, const std::string& title);
 
 }  // namespace psub

@@ -28,9 +28,11 @@ struct Image {
 // An image of `width` x `height` filled with `colour`.
 Image filledImage(std::uint32_t width, std::uint32_t height, Rgba colour);
 
-// Writes `image` as an 8-bit RGBA PNG, atomically: a temporary file in the same directory,
-// renamed over `path` when complete; on failure no file is left and std::runtime_error names
-// `path` and the reason.
+// `image` as the bytes of an 8-bit RGBA PNG; std::runtime_error naming `path` on failure.
+std::string encodePng(const std::string& path, const Image& image);
+
+// Writes encodePng(path, image) with psub::writeOutput (atomic for a regular file; see
+// psub/output.h); on failure no file is left and a std::runtime_error names `path`.
 void writePng(const std::string& path, const Image& image);
 
 // Reads an 8-bit RGB or RGBA PNG (for tests and tools); std::runtime_error naming `path`.

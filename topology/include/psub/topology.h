@@ -77,10 +77,6 @@ Mesh parseObj(std::string_view text, const std::string& name,
 std::string formatObj(const Faces& faces, std::span<const double> positions,
                       std::string_view header = {});
 
-// Writes `text` to `path` atomically: a temporary file beside it, flushed, then renamed.
-// On any failure no file is left at `path` (nor a temporary) and InputError is thrown.
-void writeFileAtomic(const std::string& path, std::string_view text);
-
 // ---------------------------------------------------------------------------------------
 // Connectivity
 
