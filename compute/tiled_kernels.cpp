@@ -16,10 +16,14 @@ std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 // One double step of one value per vertex: the n x n grid `c` (spacing 1) -> the quincunx
 // level (qv: the V-points of c's inner (n-2)^2 vertices, qf: the F-points of its (n-1)^2
 // cells) -> the (2n-9)^2 grid `f` of spacing 1/2, whose point (0, 0) lies at c's (2, 2).
+// `even`, `odd`: two rows of n values, for the fine rows' two kinds of points before they are
+// interleaved. Every loop runs over contiguous x, so that it vectorises.
 template <class T>
-void doubleStep(const T* c, std::uint32_t n, T* qv, T* qf, T* f) {
+[[gnu::always_inline]] inline void doubleStepBody(const T* __restrict c, std::uint32_t n, T* __restrict qv,
+                                                  T* __restrict qf, T* __restrict f, T* __restrict even,
+                                                  T* __restrict odd) {
     const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
-    const std::size_t nv = n - 2, nf = n - 1, m = nextSize(n);
+    const std::size_t nv = n - 2, nf = n - 1, m = nextSize(n), half = n - 4;
     for (std::size_t y = 1; y + 1 < n; ++y) {
         const T* down = c + (y - 1) * n;
         const T* mid = c + y * n;
@@ -35,36 +39,49 @@ void doubleStep(const T* c, std::uint32_t n, T* qv, T* qf, T* f) {
         T* out = qf + y * nf;
         for (std::size_t x = 0; x + 1 < n; ++x) out[x] = quarter * ((down[x] + up[x + 1]) + (down[x + 1] + up[x]));
     }
-    // V(i, j): the V-point of c's vertex (i, j); F(i, j): the F-point of the cell (i, j)-(i+1, j+1).
-    const auto V = [&](std::size_t i, std::size_t j) { return qv[(j - 1) * nv + (i - 1)]; };
-    const auto F = [&](std::size_t i, std::size_t j) { return qf[j * nf + i]; };
+    // Row v_j[i - 1] = V(i, j), the V-point of c's vertex (i, j); f_j[i] = F(i, j), the F-point
+    // of the cell (i, j)-(i+1, j+1). Fine point (p, q) lies at c's ((p + 4) / 2, (q + 4) / 2);
+    // entry a of a fine row's two kinds of points has i = a + 2.
+    const auto V = [&](std::size_t j) { return qv + (j - 1) * nv; };
+    const auto F = [&](std::size_t j) { return qf + j * nf; };
     for (std::size_t q = 0; q < m; ++q) {
-        T* out = f + q * m;
-        const std::size_t Y = q + 4;
-        if (Y % 2 == 0) {
-            const std::size_t j = Y / 2;
-            for (std::size_t p = 0; p < m; p += 2) {  // even x: V-point of V(i, j)
-                const std::size_t i = (p + 4) / 2;
-                out[p] = quarter * V(i, j) + eighth * ((F(i - 1, j - 1) + F(i, j)) + (F(i, j - 1) + F(i - 1, j))) +
-                         sixteenth * ((V(i - 1, j) + V(i + 1, j)) + (V(i, j - 1) + V(i, j + 1)));
-            }
-            for (std::size_t p = 1; p < m; p += 2) {  // odd x: F-point of the diamond across x
-                const std::size_t i = (p + 3) / 2;
-                out[p] = quarter * ((V(i, j) + V(i + 1, j)) + (F(i, j - 1) + F(i, j)));
-            }
-        } else {
-            const std::size_t j = (Y - 1) / 2;
-            for (std::size_t p = 0; p < m; p += 2) {  // even x: F-point of the diamond across y
-                const std::size_t i = (p + 4) / 2;
-                out[p] = quarter * ((V(i, j) + V(i, j + 1)) + (F(i - 1, j) + F(i, j)));
-            }
-            for (std::size_t p = 1; p < m; p += 2) {  // odd x: V-point of F(i, j)
-                const std::size_t i = (p + 3) / 2;
-                out[p] = quarter * F(i, j) + eighth * ((V(i, j) + V(i + 1, j + 1)) + (V(i + 1, j) + V(i, j + 1))) +
-                         sixteenth * ((F(i - 1, j) + F(i + 1, j)) + (F(i, j - 1) + F(i, j + 1)));
-            }
+        const std::size_t j = q / 2 + 2;
+        if (q % 2 == 0) {  // on c's row j: V-points of V(i, j) (even p), diamonds across x (odd p)
+            const T *v0 = V(j), *vm = V(j - 1), *vp = V(j + 1), *f0 = F(j), *fm = F(j - 1);
+            for (std::size_t i = 2; i < half + 2; ++i)
+                even[i - 2] = quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
+                              sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + vp[i - 1]));
+            for (std::size_t i = 2; i < half + 1; ++i) odd[i - 2] = quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i]));
+        } else {  // between c's rows j and j + 1: diamonds across y (even p), V-points of F(i, j) (odd p)
+            const T *v0 = V(j), *v1 = V(j + 1), *f0 = F(j), *fm = F(j - 1), *fp = F(j + 1);
+            for (std::size_t i = 2; i < half + 2; ++i) even[i - 2] = quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i]));
+            for (std::size_t i = 2; i < half + 1; ++i)
+                odd[i - 2] = quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
+                             sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
         }
+        T* out = f + q * m;
+        for (std::size_t a = 0; a + 1 < half; ++a) {
+            out[2 * a] = even[a];
+            out[2 * a + 1] = odd[a];
+        }
+        out[m - 1] = even[half - 1];
     }
+}
+
+// The float and double steps, each compiled twice (AVX2 and the x86-64 baseline) and chosen
+// at load time by the CPU; no fused multiply-add in either, so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__)
+#define PSUB_TILE_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define PSUB_TILE_CLONES
+#endif
+PSUB_TILE_CLONES void doubleStep(const float* c, std::uint32_t n, float* qv, float* qf, float* f, float* even,
+                                 float* odd) {
+    doubleStepBody(c, n, qv, qf, f, even, odd);
+}
+PSUB_TILE_CLONES void doubleStep(const double* c, std::uint32_t n, double* qv, double* qf, double* f, double* even,
+                                 double* odd) {
+    doubleStepBody(c, n, qv, qf, f, even, odd);
 }
 
 // The largest grid side any step of any tile of `table` uses.
@@ -82,7 +99,7 @@ std::uint32_t largestGrid(const TiledTable& table) {
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table);
-    return (4 + std::size_t(width)) * n * n;
+    return (4 + std::size_t(width)) * n * n + 2 * n;
 }
 
 template <class T>
@@ -91,6 +108,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     const std::size_t largest = largestGrid(table), area = largest * largest;
     T *a = scratch, *b = scratch + area, *qv = scratch + 2 * area, *qf = scratch + 3 * area;
     T* finals = scratch + 4 * area;  // the finest grid of each value, one after another
+    T *even = finals + width * area, *odd = even + largest;
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
     // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md).
@@ -102,7 +120,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         n = g;
         for (std::uint32_t s = 0; s < t; ++s) {
             T* to = s + 1 == t ? finals + c * area : (from == a ? b : a);
-            doubleStep(from, n, qv, qf, to);
+            doubleStep(from, n, qv, qf, to, even, odd);
             n = nextSize(n);
             from = to;
         }
