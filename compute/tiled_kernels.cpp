@@ -84,14 +84,11 @@ PSUB_TILE_CLONES void doubleStep(const double* c, std::uint32_t n, double* qv, d
     doubleStepBody(c, n, qv, qf, f, even, odd);
 }
 
-// The largest grid side any step of any tile of `table` uses.
+// The largest grid side any step of any tile of `table` may use (its largest tiles).
 std::uint32_t largestGrid(const TiledTable& table) {
-    std::uint32_t largest = 0;
-    for (std::size_t k = 0; k < table.tileCount(); ++k) {
-        std::uint32_t n = table.gridSize(k);
-        largest = std::max(largest, n);
-        for (std::uint32_t s = 0; s < table.doubleSteps; ++s) largest = std::max(largest, n = nextSize(n));
-    }
+    if (table.doubleSteps == 0) return 0;
+    std::uint32_t n = (TiledTable::kMaxLattice >> table.doubleSteps) + 2 * table.halo + 1, largest = n;
+    for (std::uint32_t s = 0; s < table.doubleSteps; ++s) largest = std::max(largest, n = nextSize(n));
     return largest;
 }
 
@@ -99,7 +96,7 @@ std::uint32_t largestGrid(const TiledTable& table) {
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table);
-    return (4 + std::size_t(width)) * n * n + 2 * n;
+    return (4 + 2 * std::size_t(width)) * n * n + 2 * n;
 }
 
 template <class T>
@@ -107,46 +104,68 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
                   T* scratch, T* lattice) {
     const std::size_t largest = largestGrid(table), area = largest * largest;
     T *a = scratch, *b = scratch + area, *qv = scratch + 2 * area, *qf = scratch + 3 * area;
-    T* finals = scratch + 4 * area;  // the finest grid of each value, one after another
-    T *even = finals + width * area, *odd = even + largest;
+    T* finals = scratch + 4 * area;           // the finest grid of each value, one after another
+    T* inputs = finals + width * area;        // the gathered grid of each value
+    T *even = inputs + width * area, *odd = even + largest;
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
-    // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md).
-    const std::size_t r0 = (std::size_t(table.halo) << t) + 4 - (std::size_t(4) << t);
+    const std::size_t points = std::size_t(g) * g;
+    if (width == 3) {
+        for (std::size_t i = 0; i < points; ++i) {
+            const T* p = base + std::size_t(gather[i]) * 3;
+            inputs[i] = p[0];
+            inputs[area + i] = p[1];
+            inputs[2 * area + i] = p[2];
+        }
+    } else {
+        for (std::size_t i = 0; i < points; ++i)
+            for (std::uint32_t c = 0; c < width; ++c) inputs[c * area + i] = base[std::size_t(gather[i]) * width + c];
+    }
     std::uint32_t n = g;
     for (std::uint32_t c = 0; c < width; ++c) {
-        for (std::size_t i = 0; i < std::size_t(g) * g; ++i) a[i] = base[std::size_t(gather[i]) * width + c];
-        T* from = a;
+        const T* from = inputs + c * area;
         n = g;
         for (std::uint32_t s = 0; s < t; ++s) {
-            T* to = s + 1 == t ? finals + c * area : (from == a ? b : a);
+            T* to = s + 1 == t ? finals + c * area : (s % 2 == 0 ? a : b);
             doubleStep(from, n, qv, qf, to, even, odd);
             n = nextSize(n);
             from = to;
         }
     }
-    const auto value = [&](std::uint32_t c, std::uint32_t x, std::uint32_t y) {
-        return finals[c * area + (y + r0) * n + (x + r0)];
-    };
+    // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md).
+    const std::size_t r0 = (std::size_t(table.halo) << t) + 4 - (std::size_t(4) << t);
+    const auto row = [&](std::uint32_t y) { return finals + (y + r0) * n + r0; };  // value 0's row y
     if (lattice) {
         for (std::uint32_t y = 0; y <= L; ++y)
             for (std::uint32_t x = 0; x <= L; ++x)
                 for (std::uint32_t c = 0; c < width; ++c)
-                    lattice[(std::size_t(y) * (L + 1) + x) * width + c] = value(c, x, y);
+                    lattice[(std::size_t(y) * (L + 1) + x) * width + c] = row(y)[c * area + x];
         return;
     }
     const std::uint32_t begin = table.output[k];
     const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
     T* out = refined + std::size_t(begin) * width;
-    for (std::uint32_t y = 1; y < L; ++y)
-        for (std::uint32_t x = 1; x < L; ++x)
-            for (std::uint32_t c = 0; c < width; ++c) *out++ = value(c, x, y);
+    for (std::uint32_t y = 1; y < L; ++y) {
+        const T* from = row(y);
+        if (width == 3) {
+            const T *x0 = from, *x1 = from + area, *x2 = from + 2 * area;
+            for (std::uint32_t x = 1; x < L; ++x, out += 3) {
+                out[0] = x0[x];
+                out[1] = x1[x];
+                out[2] = x2[x];
+            }
+        } else {
+            for (std::uint32_t x = 1; x < L; ++x)
+                for (std::uint32_t c = 0; c < width; ++c) *out++ = from[c * area + x];
+        }
+    }
     const std::uint32_t* border = table.border.data() + table.borderBegin[k];
     std::size_t e = 0;
     for (std::uint32_t y = 0; y <= L; ++y)
         for (std::uint32_t x = 0; x <= L; x += (y == 0 || y == L) ? 1 : L, ++e)
             if (border[e] >= begin && border[e] < end)
-                for (std::uint32_t c = 0; c < width; ++c) refined[std::size_t(border[e]) * width + c] = value(c, x, y);
+                for (std::uint32_t c = 0; c < width; ++c)
+                    refined[std::size_t(border[e]) * width + c] = row(y)[c * area + x];
 }
 
 template <class T>

@@ -193,7 +193,7 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
         const Walker wb{base.faces, base.connectivity}, wf{finest.faces, finest.connectivity};
         std::vector<std::uint8_t> covered(base.faces.faceCount(), 0);
         std::vector<Index> grid, cells, points;
-        const std::uint32_t largest = 32u >> plan.doubleSteps;
+        const std::uint32_t largest = TiledTable::kMaxLattice >> plan.doubleSteps;
         std::vector<std::uint32_t> sides{largest};
         if (largest / 4 > 1) sides.push_back(largest / 4);
         if (largest > 1) sides.push_back(1);
@@ -259,8 +259,26 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
         appendRows(table.rows, perLevel, k, k < plan.baseLevel ? nullptr : &neededAt[k + 1],
                    k + 1 == levels ? &drawOf : nullptr);
 
-    Faces faces = finest.faces;
-    for (Index& v : faces.verts) v = drawOf[v];
+    // Faces over drawing positions, sorted (counting sort, stable) by their first drawn corner,
+    // so that the normals' passes read positions and face normals mostly in order.
+    Faces faces;
+    faces.vertexCount = finest.faces.vertexCount;
+    std::vector<std::uint32_t> firstDrawn(finest.faces.faceCount()), start(std::size_t(table.refinedCount) + 1, 0);
+    for (Index f = 0; f < finest.faces.faceCount(); ++f) {
+        std::uint32_t first = kNone;
+        for (Index v : finest.faces.face(f)) first = std::min(first, drawOf[v]);
+        firstDrawn[f] = first;
+        ++start[first + 1];
+    }
+    for (std::size_t p = 0; p < table.refinedCount; ++p) start[p + 1] += start[p];
+    std::vector<Index> order(finest.faces.faceCount());
+    for (Index f = 0; f < finest.faces.faceCount(); ++f) order[start[firstDrawn[f]]++] = f;
+    faces.verts.reserve(finest.faces.verts.size());
+    faces.offsets.reserve(order.size() + 1);
+    for (Index f : order) {
+        for (Index v : finest.faces.face(f)) faces.verts.push_back(drawOf[v]);
+        faces.offsets.push_back(Index(faces.verts.size()));
+    }
     table.surface = buildSurfaceTable(std::move(faces));
     return table;
 }
