@@ -207,6 +207,22 @@ TEST(Tiled, ThreadsGiveBitIdenticalResults) {
     EXPECT_EQ(tiledCanonical<float>(table, torus.mesh.positions, 3, 1), tiledCanonical<float>(table, torus.mesh.positions, 3, 3));
 }
 
+// One evaluator over a changing sequence: each frame is refined from its own control points.
+TEST(Tiled, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {
+    const test::Loaded torus = loadTorus(24, 16);
+    const Hierarchy h = test::refine(torus, 4);
+    const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+    CpuEvaluator<double> evaluator(table, 3, 2);
+    std::vector<double> drawing(3 * std::size_t(table.refinedCount)), canonical(drawing.size());
+    for (int frame = 0; frame < 3; ++frame) {
+        std::vector<double> control = torus.mesh.positions;
+        for (std::size_t i = 0; i < control.size(); ++i) control[i] += 0.1 * std::sin(double(i) + frame);
+        evaluator.evaluate(control, drawing);
+        toCanonical<double>(table, drawing, canonical, 3);
+        EXPECT_LE(maxDifference(canonical, refinePositions(h, control)), 1e-12) << "frame " << frame;
+    }
+}
+
 // Widths 1, 4 and 5 carry linear primvars: value c of a point is that of the same linear function.
 TEST(Tiled, OtherWidthsCarryLinearPrimvars) {
     const test::Loaded torus = loadTorus(24, 20);
