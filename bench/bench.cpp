@@ -83,6 +83,37 @@ int torusSize(const std::string& name) {
     return std::stoi(digits);
 }
 
+// The tiled form's record (psub/tiled.h): table bytes are what evaluating reads (rows, gather
+// lists, tile data); bytes per frame add 12 B per vertex of each per-level source and
+// destination up to level B, of level B once (the tiles' gathers) and of the finest level.
+Record tiledRecord(const Model& model, int levels, int k, const Refinement& refinement, const std::string& evaluator,
+                   double topologyMs, double perLevelMs) {
+    const TiledTable& tiled = refinement.tiled;
+    std::uint64_t levelVertices = 0;
+    for (std::size_t l = 0; l < tiled.rows.levels.size(); ++l) {
+        const StencilLevel& level = tiled.rows.levels[l];
+        if (l < tiled.baseLevel) levelVertices += std::uint64_t(level.sourceCount) + level.destinationCount;
+        else if (l == tiled.baseLevel) levelVertices += level.sourceCount;
+    }
+    Record r;
+    r.model = model.name;
+    r.scheme = "ps";
+    r.levels = levels;
+    r.ccLevel = k;
+    r.refinedFaces = tiled.surface.faceOffsets.size() - 1;
+    r.refinedVertices = tiled.refinedCount;
+    r.controlVertices = tiled.controlCount;
+    r.evaluator = evaluator + "-tiled";
+    r.table = "tiled";
+    r.topologyMs = topologyMs;
+    r.tableMs = perLevelMs + refinement.tiledMs;
+    r.buildMs = r.topologyMs + r.tableMs;
+    r.tableBytes = tiled.bytes();
+    r.tableEntries = tiled.rows.indices.size() + tiled.gather.size();
+    r.bytesPerFrame = r.tableBytes + 12 * (levelVertices + tiled.refinedCount);
+    return r;
+}
+
 // PSub at `levels` P-S steps: refine() with both tables, then per-level and factorized
 // evaluators on one thread and on all. Returns the refined shape.
 // The fields every PSub record shares: model, size, table form, build times, bytes per frame
@@ -90,6 +121,7 @@ int torusSize(const std::string& name) {
 Record psubRecord(const Model& model, int levels, int k, const Refinement& refinement, TableForm form,
                   const std::string& evaluator, double topologyMs, double perLevelMs, double factorizedMs) {
     const bool isPerLevel = form == TableForm::PerLevel;
+    if (form == TableForm::Tiled) return tiledRecord(model, levels, k, refinement, evaluator, topologyMs, perLevelMs);
     const std::uint64_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
     std::uint64_t levelVertices = 0;
     for (const StencilLevel& level : refinement.perLevel.levels)
@@ -161,9 +193,37 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
 }
 #endif
 
+// The tiled form's split: double steps, base level, tiles, the share of finest points the
+// tiles write and the share of frame time the per-level rows take (levels up to B and the
+// fallback's, timed alone on a copy without tiles).
+void tiledNote(const Model& model, int levels, const Refinement& refinement, int threads, const Animation& animation,
+               std::vector<std::string>& notes) {
+    const TiledTable& tiled = refinement.tiled;
+    TiledTable rowsOnly = tiled;
+    rowsOnly.side.clear();
+    rowsOnly.output.clear();
+    std::vector<float> control(3 * std::size_t(tiled.controlCount)), out(3 * std::size_t(tiled.refinedCount));
+    const FrameSettings few{2, 15, 2};
+    CpuEvaluator<float> whole(tiled, 3, threads), rows(rowsOnly, 3, threads);
+    const auto write = [&](int frame) { animation.write(frame, control.data(), 3); };
+    const double wholeMs = timeFrames(few, write, [&] { whole.evaluate(control, out); }).median;
+    const double rowsMs = timeFrames(few, write, [&] { rows.evaluate(control, out); }).median;
+    std::uint64_t fallbackRows = 0;
+    for (std::size_t l = tiled.baseLevel; l < tiled.rows.levels.size(); ++l)
+        fallbackRows += tiled.rows.levels[l].rowEnd - tiled.rows.levels[l].rowBegin;
+    notes.push_back(format("%s P-S %d levels, tiled form: t = %u double steps from level B = %u, %zu tiles; tiles write "
+                           "%.1f%% of the %u finest points, the fallback %.1f%% (%llu fallback rows); per-level rows "
+                           "(levels up to B and the fallback) take %.3f of %.3f ms per frame (%.0f%%) on %d threads",
+                           model.name.c_str(), levels, tiled.doubleSteps, tiled.baseLevel, tiled.tileCount(),
+                           100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), tiled.refinedCount,
+                           100.0 - 100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount),
+                           (unsigned long long)fallbackRows, rowsMs, wholeMs, 100.0 * rowsMs / std::max(1e-9, wholeMs),
+                           threads));
+}
+
 Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const FrameSettings& frames,
               int allThreads, Progress& progress, const std::string& label, std::vector<Record>& records,
-              std::vector<std::string>& warnings) {
+              std::vector<std::string>& warnings, std::vector<std::string>& notes) {
     progress.show(label + ": PSub topology + tables");
     // Built up to 3 times while that takes under a second in all; the fastest of each part.
     Refinement refinement;
@@ -173,6 +233,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     options.levels = levels;
     options.preprocess = Preprocess::Auto;
     options.factorized = withFactorized;
+    options.tiled = true;
     const auto buildStart = Clock::now();
     do {
         refinement = Refinement{};
@@ -193,6 +254,8 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     if (allThreads > 1) threadCounts.push_back(allThreads);
     std::vector<TableForm> forms{TableForm::PerLevel};
     if (withFactorized) forms.push_back(TableForm::Factorized);
+    forms.push_back(TableForm::Tiled);
+    std::vector<float> canonical;
     for (TableForm form : forms)
         for (int threads : threadCounts) {
             Record r = psubRecord(model, levels, k, refinement, form, "psub-cpu", topologyMs, perLevelMs,
@@ -200,13 +263,20 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             r.threads = threads;
             r.buildRepetitions = repetitions;
             progress.show(label + ": " + r.evaluator + " " + std::to_string(threads) + " thr");
-            CpuEvaluator<float> evaluator(perLevel, factorized, refinement.surface, form, 3, threads);
+            CpuEvaluator<float> evaluator = form == TableForm::Tiled
+                                                ? CpuEvaluator<float>(refinement.tiled, 3, threads)
+                                                : CpuEvaluator<float>(perLevel, factorized, refinement.surface, form, 3, threads);
             r.timing = timeFrames(
                 frames, [&](int frame) { animation.write(frame, control.data(), 3); },
                 [&] { evaluator.evaluate(control, out); });
 
             animation.writeRest(control.data(), 3);
             evaluator.evaluate(control, out);
+            if (form == TableForm::Tiled) {  // drawing order -> canonical, outside the timing
+                canonical.resize(out.size());
+                toCanonical<float>(refinement.tiled, out, canonical, 3);
+                out.swap(canonical);
+            }
             if (reference.empty()) {
                 reference = out;
                 shape = measureShape(std::span<const std::uint32_t>(refinement.surface.faceOffsets),
@@ -221,7 +291,9 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
                                    std::to_string(r.maxDiff) + " of the bounding-box diagonal");
             records.push_back(r);
         }
+    tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN
+    forms.pop_back();  // no tiled form on Vulkan yet
     benchVulkan(model, levels, k, refinement, forms, animation, reference, shape, frames, progress, label, records,
                 warnings);
 #endif
@@ -285,6 +357,9 @@ int runBench(const BenchOptions& options) {
     report.triad1 = measureTriad(1, report.triadElements, repetitions);
     progress.show("memory bandwidth: triad, " + std::to_string(allThreads) + " threads");
     report.triadAll = allThreads > 1 ? measureTriad(allThreads, report.triadElements, repetitions) : report.triad1;
+    progress.show("memory bandwidth: write-only (streaming stores)");
+    report.write1 = measureWriteOnly(1, 3 * report.triadElements, repetitions);
+    report.writeAll = allThreads > 1 ? measureWriteOnly(allThreads, 3 * report.triadElements, repetitions) : report.write1;
 
     for (std::size_t m = 0; m < modelCount; ++m) {
         const Model& model = models[m];
@@ -343,7 +418,7 @@ int runBench(const BenchOptions& options) {
                                        std::to_string(options.maxFactorizedFaces) + " (its table grows with the "
                                        "levels; see README)");
             size.ps = runPSub(model, psLevels, k, withFactorized, report.frames, allThreads, progress, label, report.records,
-                              report.warnings);
+                              report.warnings, report.notes);
             OsdContext context{report.frames, allThreads, &progress, label, &report.warnings};
             size.cc = runOpenSubdiv(model.mesh, model.name, k, context, report.records);
 
@@ -395,6 +470,12 @@ int runBench(const BenchOptions& options) {
         r.gbs = seconds > 0 ? double(r.bytesPerFrame) / seconds / 1e9 : 0;
         const double triad = r.threads > 1 ? report.triadAll : report.triad1;
         r.bandwidthFraction = triad > 0 ? r.gbs / triad : 0;
+        const double writeOnly = r.threads > 1 ? report.writeAll : report.write1;
+        const double floorBytes = 12.0 * double(r.refinedVertices);
+        r.floorMs = triad > 0 ? floorBytes / (triad * 1e9) * 1e3 : 0;
+        r.floorRatio = r.floorMs > 0 ? r.timing.median / r.floorMs : 0;
+        r.writeFloorMs = writeOnly > 0 ? floorBytes / (writeOnly * 1e9) * 1e3 : 0;
+        r.writeFloorRatio = r.writeFloorMs > 0 ? r.timing.median / r.writeFloorMs : 0;
     }
 
     printMarkdown(report, stdout);

@@ -14,8 +14,10 @@ STABLE = {
     "model": str, "scheme": str, "levels": int, "refined_faces": int, "evaluator": str,
     "threads": int, "build_ms": (int, float), "frame_ms_median": (int, float),
     "frame_ms_min": (int, float), "bytes_per_frame": int, "bandwidth_fraction": (int, float),
+    "floor_ms": (int, float), "floor_ratio": (int, float), "write_floor_ms": (int, float),
+    "write_floor_ratio": (int, float),
 }
-EVALUATORS = {"psub-cpu-perlevel", "psub-cpu-factorized", "osd-cpu", "osd-omp"}
+EVALUATORS = {"psub-cpu-perlevel", "psub-cpu-factorized", "psub-cpu-tiled", "osd-cpu", "osd-omp"}
 
 
 def fail(message):
@@ -45,7 +47,7 @@ def main():
 
     with open(json_path) as f:
         data = json.load(f)
-    for key in ("machine", "triad_gbs", "triad_gbs_1thread", "command", "results"):
+    for key in ("machine", "triad_gbs", "triad_gbs_1thread", "write_only_gbs", "command", "results"):
         if key not in data:
             fail(f"top-level field {key!r} missing")
     for key in ("cpu", "cores", "date", "compiler", "opensubdiv"):
@@ -66,6 +68,9 @@ def main():
             fail(f"implausible record: {record}")
         if record["max_diff_rel"] is None or record["max_diff_rel"] > 1e-5:
             fail(f"evaluators disagree: {record}")
+        if record["floor_ms"] <= 0 or abs(record["floor_ratio"] * record["floor_ms"] - record["frame_ms_median"]) > \
+                1e-6 * max(1.0, record["frame_ms_median"]):
+            fail(f"floor_ratio is not frame_ms_median / floor_ms: {record}")
     seen = {r["evaluator"] for r in results}
     if not EVALUATORS <= seen:
         fail(f"evaluators missing: {sorted(EVALUATORS - seen)}")

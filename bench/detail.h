@@ -46,6 +46,10 @@ CpuTimes readCpuTimes();
 // threads; best of `repetitions`, in GB/s (1e9 B/s) counting 3 arrays x 8 B per element.
 double measureTriad(int threads, std::size_t elements, int repetitions);
 
+// Write-only bandwidth: `elements` doubles stored with streaming (non-temporal) stores on
+// `threads` threads; best of `repetitions`, in GB/s counting 8 B per element.
+double measureWriteOnly(int threads, std::size_t elements, int repetitions);
+
 // ---------------------------------------------------------------------------------------
 // Progress on stderr: one rewritten line on a terminal, one line per step otherwise.
 
@@ -208,6 +212,10 @@ struct Record {
     double ratioVsOsdBest = 0, buildRatioVsOsdBest = 0;
     double maxDiff = 0;          // max_diff_rel: vs the scheme's reference, / bbox diagonal
     Shape shape;
+    // floor_ms: refined vertices x 12 B at the triad of the same thread count; floor_ratio =
+    // frame_ms_median / floor_ms; write_floor_ms / write_floor_ratio: the same at the
+    // write-only (streaming store) bandwidth.
+    double floorMs = 0, floorRatio = 0, writeFloorMs = 0, writeFloorRatio = 0;
 };
 
 struct SizeResult {
@@ -232,6 +240,7 @@ struct ModelResult {
 struct Report {
     Machine machine;
     double triadAll = 0, triad1 = 0;
+    double writeAll = 0, write1 = 0;  // write-only bandwidth (streaming stores), GB/s
     std::size_t triadElements = 0;
     std::string command;
     FrameSettings frames;

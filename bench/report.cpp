@@ -82,6 +82,12 @@ void printMarkdown(const Report& report, std::FILE* out) {
                  "**%.1f GB/s on 1 thread, %.1f GB/s on %d threads**\n",
                  report.triadElements, report.triad1, report.triadAll, m.threads);
     std::fprintf(out,
+                 "- Write-only bandwidth (streaming stores of %zu doubles): **%.1f GB/s on 1 thread, %.1f GB/s on %d "
+                 "threads**. Floor = refined vertices x 12 B (finest positions written once) at the triad of the "
+                 "record's thread count; x floor = frame time / floor; x write floor: the same at write-only "
+                 "bandwidth\n",
+                 3 * report.triadElements, report.write1, report.writeAll, m.threads);
+    std::fprintf(out,
                  "- Frames: control points move every frame (a small wave); per-frame time is the median (and "
                  "min) of %d timed frames after %d warm-up frames (fewer, at least 10, where %d frames would "
                  "take over %.0f s)\n",
@@ -140,16 +146,17 @@ void printMarkdown(const Report& report, std::FILE* out) {
     std::fprintf(out, "\n## Every configuration\n\n");
     std::fprintf(out, "| model | k | scheme | levels | faces | evaluator | thr | layout | build ms (topology + "
                       "table) | frame ms median | min | frames | MB/frame | GB/s | bw fraction | speed-up vs OSD "
-                      "fastest | build speed-up | max diff |\n");
-    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                      "fastest | build speed-up | max diff | floor ms | x floor | x write floor | table MB |\n");
+    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (const Record& r : report.records)
-        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e |\n",
+        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e | %.3f | %.1f | %.1f | %.1f |\n",
                      r.model.c_str(), r.ccLevel, r.scheme == "ps" ? "P-S" : "CC", r.levels,
                      (unsigned long long)r.refinedFaces, r.evaluator.c_str(), r.threads, r.layoutFloats,
                      ms(r.buildMs).c_str(), ms(r.topologyMs).c_str(), ms(r.tableMs).c_str(),
                      ms(r.timing.median).c_str(), ms(r.timing.min).c_str(), r.timing.frames,
                      double(r.bytesPerFrame) / 1e6, r.gbs, r.bandwidthFraction, ratio(r.ratioVsOsdBest).c_str(),
-                     ratio(r.buildRatioVsOsdBest).c_str(), r.maxDiff);
+                     ratio(r.buildRatioVsOsdBest).c_str(), r.maxDiff, r.floorMs, r.floorRatio, r.writeFloorRatio,
+                     double(r.tableBytes) / 1e6);
 
     std::fprintf(out, "\n## Shape at matched sizes (refined positions from the evaluators, rest pose)\n\n");
     std::fprintf(out, "| model | input volume | input box diagonal | k | P-S levels | P-S faces | P-S volume | P-S "
@@ -218,6 +225,8 @@ void writeJson(const Report& report, const std::string& path) {
         o["bytes_per_frame"] = r.bytesPerFrame, o["gbs"] = r.gbs, o["bandwidth_fraction"] = r.bandwidthFraction;
         o["ratio_vs_osd_best"] = r.ratioVsOsdBest, o["build_ratio_vs_osd_best"] = r.buildRatioVsOsdBest;
         o["max_diff_rel"] = r.maxDiff, o["volume"] = r.shape.volume, o["bbox_diagonal"] = r.shape.diagonal;
+        o["floor_ms"] = r.floorMs, o["floor_ratio"] = r.floorRatio;
+        o["write_floor_ms"] = r.writeFloorMs, o["write_floor_ratio"] = r.writeFloorRatio;
         results.push_back(std::move(o));
     }
     const Json json = {
@@ -226,6 +235,8 @@ void writeJson(const Report& report, const std::string& path) {
         {"command", report.command},
         {"triad_gbs", report.triadAll},
         {"triad_gbs_1thread", report.triad1},
+        {"write_only_gbs", report.writeAll},
+        {"write_only_gbs_1thread", report.write1},
         {"triad", {{"elements_per_array", std::uint64_t(report.triadElements)}, {"bytes_per_element", 24},
                    {"convention", "STREAM: a[i] = b[i] + s*c[i], 3 arrays x 8 bytes per element, best of several runs"}}},
         {"frames", {{"warmup", report.frames.warmup}, {"frames", report.frames.frames},
@@ -279,6 +290,15 @@ void writeSvg(const Report& report, const std::string& path) {
         const std::string key = r.evaluator + " (" + std::to_string(r.threads) + (r.threads == 1 ? " thread)" : " threads)");
         if (!series.count(key)) order.push_back(key);
         series[key].push_back({double(r.refinedFaces), r.timing.median});
+    }
+    // The floor: PSub's finest positions written once at the triad of all threads.
+    const std::string floorKey = "floor: 12 B/vertex at triad (" + std::to_string(report.machine.threads) + " threads)";
+    std::map<double, double> floor;
+    for (const Record& r : report.records)
+        if (r.scheme == "ps" && r.threads == report.machine.threads && r.floorMs > 0) floor[double(r.refinedFaces)] = r.floorMs;
+    if (!floor.empty()) {
+        order.push_back(floorKey);
+        series[floorKey].assign(floor.begin(), floor.end());
     }
     double xMin = 1e300, xMax = 0, yMin = 1e300, yMax = 0;
     for (auto& [key, points] : series) {
@@ -348,7 +368,7 @@ void writeSvg(const Report& report, const std::string& path) {
     for (std::size_t i = 0; i < order.size(); ++i) {
         const auto& points = series[order[i]];
         const char* colour = colours[i % (sizeof colours / sizeof *colours)];
-        const bool osd = order[i].rfind("osd", 0) == 0;
+        const bool osd = order[i].rfind("osd", 0) == 0 || order[i] == floorKey;
         std::string line;
         for (const auto& [x, y] : points) line += format("%.1f,%.1f ", X(x), Y(y));
         svg << format("<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"2\"%s points=\"%s\"/>\n", colour,

@@ -70,12 +70,36 @@ CpuEvaluator<T>::CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTab
     if (form == TableForm::Factorized &&
         (factorized.rowCount() != perLevel.refinedCount() || factorized.controlCount != perLevel.controlCount))
         throw std::invalid_argument("CpuEvaluator: the factorized table was not built for these levels");
+    if (form == TableForm::Tiled)
+        throw std::invalid_argument("CpuEvaluator: the tiled form takes its TiledTable");
+    allocate();
+}
+
+static const FactorizedTable& noFactorizedTable() {
+    static const FactorizedTable none;
+    return none;
+}
+
+template <class T>
+CpuEvaluator<T>::CpuEvaluator(const TiledTable& tiled, std::uint32_t width, int threads)
+    : perLevel_(tiled.rows), factorized_(noFactorizedTable()), surface_(tiled.surface), form_(TableForm::Tiled),
+      width_(width), threads_(threads > 0 ? threads : omp_get_max_threads()), tiled_(&tiled) {
+    if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
+    allocate();
+    tileScratch_.resize(tileScratchSize(tiled, width) * std::size_t(threads_));
+}
+
+template <class T>
+void CpuEvaluator<T>::allocate() {
+    const PerLevelTable& perLevel = perLevel_;
+    const SurfaceTable& surface = surface_;
+    const std::uint32_t width = width_;
     std::uint64_t total = 0;
     for (std::size_t k = 0; k + 1 < perLevel.levels.size(); ++k) {
         levelBase_.push_back(total);
         total += std::uint64_t(perLevel.levels[k].destinationCount) * width;
     }
-    if (form == TableForm::PerLevel) levels_.resize(total);
+    if (form_ != TableForm::Factorized) levels_.resize(total);
     faceNormals_.resize(4 * (surface.faceOffsets.size() - 1));  // padded to 4: one aligned load each
     allQuads_ = surface.faceVerts.size() == 4 * (surface.faceOffsets.size() - 1);
     for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
@@ -97,6 +121,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         }
         return;
     }
+    if (form_ == TableForm::Tiled) return evaluateTiled(control, refined, team);
     const std::size_t levels = perLevel_.levels.size();
     if (levels == 0) {
         std::copy(control.begin(), control.begin() + std::ptrdiff_t(controlCount()) * width_, refined.begin());
@@ -110,6 +135,34 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         const auto [begin, end] = shareByWork(perLevel_, level);
         evaluateLevelRows(perLevel_, k, source, packed, destination, packed, begin, end);
 #pragma omp barrier
+    }
+}
+
+// The per-level rows (levels up to B whole, then the fallback's), then the tiles from level B.
+template <class T>
+void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> refined, int team) {
+    const BufferLayout packed{0, width_, width_};
+    const std::size_t levels = perLevel_.levels.size();
+    if (levels == 0) {
+        std::copy(control.begin(), control.begin() + std::ptrdiff_t(controlCount()) * width_, refined.begin());
+        return;
+    }
+    const TiledTable& tiled = *tiled_;
+    const T* base = tiled.tileCount() == 0 || tiled.baseLevel == 0 ? control.data() : levels_.data() + levelBase_[tiled.baseLevel - 1];
+    const std::size_t scratchSize = tileScratchSize(tiled, width_);
+#pragma omp parallel num_threads(team) if (team > 1)
+    {
+        for (std::size_t k = 0; k < levels; ++k) {
+            const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
+            T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
+            const auto [begin, end] = shareByWork(perLevel_, perLevel_.levels[k]);
+            evaluateLevelRows(perLevel_, k, source, packed, destination, packed, begin, end);
+#pragma omp barrier
+        }
+        T* scratch = tileScratch_.data() + std::size_t(omp_get_thread_num()) * scratchSize;
+#pragma omp for schedule(dynamic, 8)
+        for (std::size_t k = 0; k < tiled.tileCount(); ++k)
+            evaluateTile(tiled, k, base, width_, refined.data(), scratch);
     }
 }
 

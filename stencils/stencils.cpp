@@ -294,6 +294,15 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     out.perLevel.controlCount = mesh.faces.vertexCount;
     Level parent{mesh.faces, connectivity};
     const int steps = options.levels + (out.preprocessed ? 1 : 0);
+    // The tiled form's plan, once the first quad level exists, and its base level, kept.
+    const int firstQuadLevel = out.preprocessed && steps > 0 ? 1 : 0;
+    TiledPlan plan{0, 0};
+    Level base;
+    const auto planTiles = [&](int k) {
+        if (options.tiled && k == firstQuadLevel) plan = planTiled(std::size_t(steps), out.preprocessed, parent);
+        if (options.tiled && k == int(plan.baseLevel)) base = parent;
+    };
+    planTiles(0);
     for (int k = 1; k <= steps; ++k) {
         auto start = Clock::now();
         const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));
@@ -305,6 +314,12 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         out.perLevelMs += ms(start);
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
         parent = std::move(child);
+        planTiles(k);
+    }
+    if (options.tiled) {
+        const auto start = Clock::now();
+        out.tiled = buildTiledTable(out.perLevel, base, parent, plan);
+        out.tiledMs = ms(start);
     }
     auto start = Clock::now();
     out.surface = buildSurfaceTable(std::move(parent.faces));

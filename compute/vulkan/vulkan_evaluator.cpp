@@ -748,6 +748,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     : impl_(std::make_unique<Impl>(context.impl(), width)) {
     if (width == 0 || width > kMaxWidth)
         throw std::invalid_argument("VulkanEvaluator: width must be 1 to " + std::to_string(kMaxWidth));
+    if (form == TableForm::Tiled) throw std::invalid_argument("VulkanEvaluator: no tiled form on Vulkan yet");
     if (form == TableForm::Factorized &&
         (factorized.rowCount() != perLevel.refinedCount() || factorized.controlCount != perLevel.controlCount))
         throw std::invalid_argument("VulkanEvaluator: the factorized table was not built for these levels");

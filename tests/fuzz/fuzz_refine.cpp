@@ -1,6 +1,6 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
-// levels (either boundary mode), turned into both table forms and evaluated; the counts must match the closed form
-// and the two table forms must agree.
+// levels (either boundary mode), turned into all three table forms and evaluated; the counts must match the closed
+// form and the table forms must agree (the tiled one once put back in canonical order).
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -16,6 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (mesh.faces.verts.size() > 20000) return 0;  // keep each input fast
         const psub::CheckedMesh checked = psub::checkMesh(mesh);
         psub::RefineOptions options{2, psub::Preprocess::Auto, true, {}};
+        options.tiled = true;
         options.boundary = size % 2 ? psub::Boundary::Smooth : psub::Boundary::Paper;  // both, by input length
         const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
         const psub::Counts expected = psub::countsAfterSteps(psub::countMesh(mesh.faces, checked.connectivity),
@@ -24,14 +25,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             std::abort();
         psub::CpuEvaluator<double> perLevel(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
         psub::CpuEvaluator<double> factorized(r.perLevel, r.factorized, r.surface, psub::TableForm::Factorized, 3, 1);
+        psub::CpuEvaluator<double> tiled(r.tiled, 3, 1);
+        if (tiled.refinedCount() != perLevel.refinedCount()) std::abort();
         std::vector<double> a(3 * std::size_t(perLevel.refinedCount())), b(a.size()), normals(a.size());
+        std::vector<double> drawing(a.size()), c(a.size());
         perLevel.evaluate(mesh.positions, a);
         factorized.evaluate(mesh.positions, b);
+        tiled.evaluate(mesh.positions, drawing);
+        psub::toCanonical<double>(r.tiled, drawing, c, 3);
+        tiled.normals(drawing, normals);
         perLevel.normals(a, normals);
         double scale = 1;
         for (double p : mesh.positions) scale = std::max(scale, std::abs(p));
         for (std::size_t i = 0; i < a.size(); ++i)
-            if (std::isfinite(a[i]) && std::isfinite(b[i]) && std::abs(a[i] - b[i]) > 1e-4 * scale) std::abort();
+            if ((std::isfinite(a[i]) && std::isfinite(b[i]) && std::abs(a[i] - b[i]) > 1e-4 * scale) ||
+                (std::isfinite(a[i]) && std::isfinite(c[i]) && std::abs(a[i] - c[i]) > 1e-9 * scale))
+                std::abort();
     } catch (const psub::InputError&) {
     }
     return 0;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "psub/tables.h"
+#include "psub/tiled.h"
 
 #include <cstdint>
 #include <span>
@@ -35,7 +36,23 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source,
                             BufferLayout destinationLayout, std::uint32_t rowBegin,
                             std::uint32_t rowEnd);
 
-enum class TableForm { PerLevel, Factorized };
+// Tile k of a tiled table (psub/tiled.h): `base` holds level B's vertices (`width` packed
+// values each), `refined` the finest level in drawing order; writes the points the tile owns.
+// `scratch`: tileScratchSize values. With `lattice`, writes instead the tile's whole
+// (L + 1) x (L + 1) lattice there, row by row, its border points included (for tests).
+std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width);
+template <class T>
+void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
+                  T* scratch, T* lattice = nullptr);
+
+// The tiled form's output (drawing order) rearranged into the canonical order of SPEC.md
+// (what `psub subdivide` writes): canonical[table.canonical[p]] = drawing[p].
+template <class T>
+void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<T> canonical, std::uint32_t width);
+
+// PerLevel and Factorized write the canonical order; Tiled writes its drawing order (see
+// psub/tiled.h; toCanonical rearranges it) and its normals follow the same order.
+enum class TableForm { PerLevel, Factorized, Tiled };
 
 // The per-frame evaluator: control points in, refined vertices out, on up to `threads`
 // threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the intermediate levels are allocated once, here; a frame
@@ -46,6 +63,8 @@ public:
     CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTable& factorized,
                  const SurfaceTable& surface, TableForm form, std::uint32_t width = 3,
                  int threads = 0);
+    // The tiled form: output and normals in its drawing order.
+    explicit CpuEvaluator(const TiledTable& tiled, std::uint32_t width = 3, int threads = 0);
 
     std::uint32_t controlCount() const { return perLevel_.controlCount; }
     std::uint32_t refinedCount() const { return perLevel_.refinedCount(); }
@@ -66,6 +85,8 @@ private:
     void vertexNormalsScalar(T* normals) const;
     void faceNormalsSimd(const T* positions);   // float only
     void vertexNormalsSimd(T* normals) const;   // float only
+    void allocate();                             // buffers of the constructors
+    void evaluateTiled(std::span<const T> control, std::span<T> refined, int team);
 
     const PerLevelTable& perLevel_;
     const FactorizedTable& factorized_;
@@ -77,6 +98,8 @@ private:
     std::vector<std::uint64_t> levelBase_;  // offset of each intermediate level in levels_
     std::vector<T> faceNormals_;  // 4 per face, the 4th 0
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f
+    const TiledTable* tiled_ = nullptr;
+    std::vector<T> tileScratch_;  // per thread: tileScratchSize values
 };
 
 extern template class CpuEvaluator<float>;

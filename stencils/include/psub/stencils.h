@@ -6,6 +6,7 @@
 
 #include "psub/rules.h"
 #include "psub/tables.h"
+#include "psub/tiled.h"
 #include "psub/topology.h"
 
 #include <cstdint>
@@ -25,6 +26,23 @@ FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel);
 
 SurfaceTable buildSurfaceTable(Faces finest);
 
+// Where the tiled form starts its tiles: levels [0, baseLevel) of the per-level table are
+// evaluated whole, then each tile runs 2 * doubleSteps steps (0 when there are too few quad
+// levels: everything is then the fallback).
+struct TiledPlan {
+    std::uint32_t baseLevel, doubleSteps;
+};
+
+// For a per-level table of `levelCount` levels: as many double steps as fit after the paired
+// method (at most 3), fewer while the irregular vertices of the first quad level (level 1 when
+// preprocessed, else 0) would leave over a tenth of level B's faces without a tile.
+TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firstQuadLevel);
+
+// The tiled form (psub/tiled.h) of `perLevel`, whose level plan.baseLevel is `base` and whose
+// finest level is `finest` (their topology is only read here, never kept).
+TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan);
+TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel);
+
 struct RefineOptions {
     int levels = 2;                         // P-S steps after any preprocessing
     Preprocess preprocess = Preprocess::Auto;
@@ -32,6 +50,7 @@ struct RefineOptions {
     std::function<void(int level, double seconds)> onLevel;  // progress, after each level
     Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
     Boundary boundary = Boundary::Paper;    // Smooth: beyond the paper (psub/topology.h)
+    bool tiled = false;                     // also build the tiled form (psub/tiled.h)
 };
 
 // Everything the per-frame loop needs, and nothing of the topology.
@@ -41,7 +60,8 @@ struct Refinement {
     PerLevelTable perLevel;
     FactorizedTable factorized;  // empty unless RefineOptions::factorized
     SurfaceTable surface;
-    double topologyMs = 0, perLevelMs = 0, factorizedMs = 0;
+    TiledTable tiled;            // empty unless RefineOptions::tiled
+    double topologyMs = 0, perLevelMs = 0, factorizedMs = 0, tiledMs = 0;
 };
 
 // Refines a checked mesh (see checkMesh) and builds its tables. Throws InputError when

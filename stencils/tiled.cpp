@@ -1,0 +1,292 @@
+// Builds the tiled table form (psub/tiled.h): finds regular blocks of level-B faces by walking
+// half-edges, maps their finest lattices to canonical indices by walking the finest level,
+// assigns drawing positions, and keeps the per-level rows the fallback points need.
+#include "psub/stencils.h"
+#include "psub/tiled.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace psub {
+namespace {
+
+constexpr std::uint32_t kNone = ~0u;
+
+// Moves on a quad mesh around regular vertices (interior, valence 4, four quads). rot(h) is
+// the next half-edge counter-clockwise around h's tail (the face order of refineFaces keeps
+// every level consistently oriented, so rot turns the same way everywhere on one level).
+struct Walker {
+    const Faces& faces;
+    const Connectivity& c;
+
+    Index head(Index h) const { return faces.verts[c.next[h]]; }
+    Index rot(Index h) const { return c.twin[c.next[c.next[c.next[h]]]]; }
+    Index rot3(Index h) const { return rot(rot(rot(h))); }
+    Index straight(Index h) const { return rot(rot(c.twin[h])); }  // on past head(h)
+    bool regular(Index v) const {
+        if (c.kind[v] != VertexKind::Interior || c.valence[v] != 4) return false;
+        for (Index h : c.outgoingOf(v))
+            if (faces.faceSize(c.faceOf[h]) != 4) return false;
+        return true;
+    }
+};
+
+// The g x g level-B vertices (row by row, x along face f's first edge, y along its last,
+// face f's first corner at (halo, halo)) and the side x side faces of the block, when every
+// one of those vertices is regular and distinct.
+bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo, std::vector<Index>& grid,
+               std::vector<Index>& cells) {
+    if (w.faces.faceSize(f) != 4) return false;
+    const std::uint32_t g = side + 2 * halo + 1;
+    Index v = w.faces.verts[w.faces.offsets[f]], hx = w.faces.offsets[f];
+    if (!w.regular(v)) return false;
+    // To the grid's origin: halo steps -y, then halo steps -x.
+    for (std::uint32_t s = 0; s < halo; ++s) {
+        const Index down = w.rot3(hx);
+        v = w.head(down);
+        if (!w.regular(v)) return false;
+        hx = w.rot3(w.c.twin[down]);
+    }
+    for (std::uint32_t s = 0; s < halo; ++s) {
+        const Index left = w.rot(w.rot(hx));
+        v = w.head(left);
+        if (!w.regular(v)) return false;
+        hx = w.c.twin[left];
+    }
+    grid.resize(std::size_t(g) * g);
+    cells.clear();
+    for (std::uint32_t y = 0; y < g; ++y) {
+        Index u = v, ux = hx;
+        for (std::uint32_t x = 0; x < g; ++x) {
+            grid[std::size_t(y) * g + x] = u;
+            if (x >= halo && x < halo + side && y >= halo && y < halo + side) cells.push_back(w.c.faceOf[ux]);
+            if (x + 1 == g) break;
+            u = w.head(ux);
+            if (!w.regular(u)) return false;
+            ux = w.straight(ux);
+        }
+        if (y + 1 == g) break;
+        const Index up = w.rot(hx);
+        v = w.head(up);
+        if (!w.regular(v)) return false;
+        hx = w.rot(w.c.twin[up]);
+    }
+    std::vector<Index> sorted = grid;
+    std::sort(sorted.begin(), sorted.end());
+    return std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end();
+}
+
+// The half-edge leaving `from` on the finest level whose straight walk of `steps` edges ends
+// at `to`, or kNone.
+Index directionTo(const Walker& w, Index from, Index to, std::uint32_t steps) {
+    for (Index o : w.c.outgoingOf(from)) {
+        Index d = o, v = from;
+        bool ok = true;
+        for (std::uint32_t s = 1; s <= steps && ok; ++s) {
+            v = w.head(d);
+            if (s < steps) {
+                ok = w.regular(v);
+                if (ok) d = w.straight(d);
+            }
+        }
+        if (ok && v == to) return o;
+    }
+    return kNone;
+}
+
+// The finest level's (L+1) x (L+1) lattice of a block (row by row, in the block's frame), or
+// false when it cannot be walked as a regular grid.
+bool walkLattice(const Walker& w, const std::vector<Index>& grid, std::uint32_t g, std::uint32_t halo,
+                 std::uint32_t steps, std::uint32_t lattice, std::vector<Index>& points) {
+    const Index v00 = grid[std::size_t(halo) * g + halo];
+    if (!w.regular(v00)) return false;
+    const Index hx = directionTo(w, v00, grid[std::size_t(halo) * g + halo + 1], steps);
+    const Index hy = directionTo(w, v00, grid[std::size_t(halo + 1) * g + halo], steps);
+    if (hx == kNone || hy == kNone) return false;
+    const bool counterClockwise = w.rot(hx) == hy;
+    if (!counterClockwise && w.rot3(hx) != hy) return false;
+    const auto turn = [&](Index h) { return counterClockwise ? w.rot(h) : w.rot3(h); };  // +x -> +y
+    points.resize(std::size_t(lattice + 1) * (lattice + 1));
+    Index v = v00, vx = hx;
+    for (std::uint32_t y = 0; y <= lattice; ++y) {
+        Index u = v, ux = vx;
+        for (std::uint32_t x = 0; x <= lattice; ++x) {
+            points[std::size_t(y) * (lattice + 1) + x] = u;
+            if (x == lattice) break;
+            u = w.head(ux);
+            if (!w.regular(u)) return false;
+            ux = w.straight(ux);
+        }
+        if (y == lattice) break;
+        const Index up = turn(vx);
+        v = w.head(up);
+        if (!w.regular(v)) return false;
+        vx = turn(w.c.twin[up]);  // -y at v turned once is +x
+    }
+    return true;
+}
+
+// Level k of `in` appended to `out`: every row, or only those whose destination is `needed`,
+// with destinations renumbered through `renumber` when given.
+void appendRows(PerLevelTable& out, const PerLevelTable& in, std::size_t k, const std::vector<std::uint8_t>* needed,
+                const std::vector<std::uint32_t>* renumber) {
+    const StencilLevel& level = in.levels[k];
+    StencilLevel copy{level.sourceCount, level.destinationCount, out.groups.size(), 0, out.destinations.size(), 0};
+    for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+        const RowGroup& g = in.groups[gi];
+        RowGroup kept = g;
+        kept.rowBegin = out.destinations.size();
+        kept.indexBegin = out.indices.size();
+        kept.rowCount = 0;
+        for (std::uint64_t r = g.rowBegin; r < g.rowBegin + g.rowCount; ++r) {
+            const std::uint32_t d = in.destinations[r];
+            if (needed && !(*needed)[d]) continue;
+            out.destinations.push_back(renumber ? (*renumber)[d] : d);
+            const auto first = in.indices.begin() + std::ptrdiff_t(g.indexBegin + (r - g.rowBegin) * g.width);
+            out.indices.insert(out.indices.end(), first, first + g.width);
+            ++kept.rowCount;
+        }
+        if (kept.rowCount > 0) out.groups.push_back(kept);
+    }
+    copy.groupEnd = out.groups.size();
+    copy.rowEnd = out.destinations.size();
+    out.levels.push_back(copy);
+}
+
+}  // namespace
+
+TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firstQuadLevel) {
+    static constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};
+    const std::size_t quadLevels = levelCount - (preprocessed && levelCount > 0 ? 1 : 0);
+    const Walker w{firstQuadLevel.faces, firstQuadLevel.connectivity};
+    double irregular = 0;
+    for (Index v = 0; v < firstQuadLevel.faces.vertexCount; ++v) irregular += w.regular(v) ? 0 : 1;
+    const double faces = std::max<double>(1, firstQuadLevel.faces.faceCount());
+    // Expected share of level-B faces whose one-face tile's grid, (2 halo + 2)^2 vertices,
+    // holds an irregular one: their count stays while the faces double with every level.
+    const auto missed = [&](std::uint32_t t) {
+        const double grid = 2.0 * kHalo[t] + 2;
+        return irregular * grid * grid / (faces * std::ldexp(1.0, int(quadLevels) - 2 * int(t)));
+    };
+    std::uint32_t t = std::uint32_t(std::min<std::size_t>(3, quadLevels / 2));
+    while (t > 1 && missed(t) > 0.1) --t;
+    return {std::uint32_t(levelCount) - 2 * t, t};
+}
+
+TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan) {
+    static constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};
+    if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
+        throw std::invalid_argument("buildTiledTable: the plan does not fit the per-level table");
+    TiledTable table;
+    table.controlCount = perLevel.controlCount;
+    table.refinedCount = perLevel.refinedCount();
+    table.baseLevel = plan.baseLevel;
+    table.doubleSteps = plan.doubleSteps;
+    table.halo = kHalo[plan.doubleSteps];
+    const std::uint32_t steps = 1u << plan.doubleSteps;
+
+    // Tiles: greedy, largest blocks first, then smaller ones where those do not fit.
+    std::vector<std::uint32_t> drawOf(table.refinedCount, kNone);
+    std::uint32_t next = 0;
+    if (plan.doubleSteps > 0) {
+        const Walker wb{base.faces, base.connectivity}, wf{finest.faces, finest.connectivity};
+        std::vector<std::uint8_t> covered(base.faces.faceCount(), 0);
+        std::vector<Index> grid, cells, points;
+        const std::uint32_t largest = TiledTable::kMaxLattice >> plan.doubleSteps;
+        std::vector<std::uint32_t> sides{largest};
+        if (largest / 4 > 1) sides.push_back(largest / 4);
+        if (largest > 1) sides.push_back(1);
+        for (std::uint32_t side : sides) {
+            const std::uint32_t g = side + 2 * table.halo + 1, lattice = side * steps;
+            for (Index f = 0; f < base.faces.faceCount(); ++f) {
+                if (covered[f] || !walkBlock(wb, f, side, table.halo, grid, cells)) continue;
+                if (std::any_of(cells.begin(), cells.end(), [&](Index c) { return covered[c] != 0; })) continue;
+                if (!walkLattice(wf, grid, g, table.halo, steps, lattice, points)) continue;
+                for (Index c : cells) covered[c] = 1;
+                table.side.push_back(side);
+                table.gather.insert(table.gather.end(), grid.begin(), grid.end());
+                table.gatherBegin.push_back(table.gather.size());
+                table.output.push_back(next);
+                const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
+                    return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
+                };
+                for (std::uint32_t y = 1; y < lattice; ++y)
+                    for (std::uint32_t x = 1; x < lattice; ++x) {
+                        if (at(x, y) != kNone) throw std::logic_error("buildTiledTable: a tile's inner point is shared");
+                        at(x, y) = next++;
+                    }
+                const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
+                    if (at(x, y) == kNone) at(x, y) = next++;
+                    table.border.push_back(at(x, y));
+                };
+                for (std::uint32_t y = 0; y <= lattice; ++y)
+                    for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
+                table.borderBegin.push_back(table.border.size());
+            }
+        }
+    }
+    table.side.shrink_to_fit();
+    table.fallbackBegin = next;
+    std::vector<std::uint8_t> needed(table.refinedCount, 0);
+    for (std::uint32_t v = 0; v < table.refinedCount; ++v)
+        if (drawOf[v] == kNone) {
+            drawOf[v] = next++;
+            needed[v] = 1;
+        }
+    table.canonical.resize(table.refinedCount);
+    for (std::uint32_t v = 0; v < table.refinedCount; ++v) table.canonical[drawOf[v]] = v;
+
+    // Rows: levels [0, B) whole; the rest only where the fallback needs them (marked from the
+    // finest level back to level B + 1).
+    const std::size_t levels = perLevel.levels.size();
+    std::vector<std::vector<std::uint8_t>> neededAt(levels + 1);
+    neededAt[levels] = std::move(needed);
+    for (std::size_t k = levels; k-- > std::size_t(plan.baseLevel) + 1;) {
+        const StencilLevel& level = perLevel.levels[k];
+        neededAt[k].assign(level.sourceCount, 0);
+        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+            const RowGroup& g = perLevel.groups[gi];
+            for (std::uint64_t r = g.rowBegin; r < g.rowBegin + g.rowCount; ++r) {
+                if (!neededAt[k + 1][perLevel.destinations[r]]) continue;
+                const std::uint64_t first = g.indexBegin + (r - g.rowBegin) * g.width;
+                for (std::uint32_t j = 0; j < g.width; ++j) neededAt[k][perLevel.indices[first + j]] = 1;
+            }
+        }
+    }
+    table.rows.controlCount = perLevel.controlCount;
+    for (std::size_t k = 0; k < levels; ++k)
+        appendRows(table.rows, perLevel, k, k < plan.baseLevel ? nullptr : &neededAt[k + 1],
+                   k + 1 == levels ? &drawOf : nullptr);
+
+    // Faces over drawing positions, sorted (counting sort, stable) by their first drawn corner,
+    // so that the normals' passes read positions and face normals mostly in order.
+    Faces faces;
+    faces.vertexCount = finest.faces.vertexCount;
+    std::vector<std::uint32_t> firstDrawn(finest.faces.faceCount()), start(std::size_t(table.refinedCount) + 1, 0);
+    for (Index f = 0; f < finest.faces.faceCount(); ++f) {
+        std::uint32_t first = kNone;
+        for (Index v : finest.faces.face(f)) first = std::min(first, drawOf[v]);
+        firstDrawn[f] = first;
+        ++start[first + 1];
+    }
+    for (std::size_t p = 0; p < table.refinedCount; ++p) start[p + 1] += start[p];
+    std::vector<Index> order(finest.faces.faceCount());
+    for (Index f = 0; f < finest.faces.faceCount(); ++f) order[start[firstDrawn[f]]++] = f;
+    faces.verts.reserve(finest.faces.verts.size());
+    faces.offsets.reserve(order.size() + 1);
+    for (Index f : order) {
+        for (Index v : finest.faces.face(f)) faces.verts.push_back(drawOf[v]);
+        faces.offsets.push_back(Index(faces.verts.size()));
+    }
+    table.surface = buildSurfaceTable(std::move(faces));
+    return table;
+}
+
+TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel) {
+    const TiledPlan plan = planTiled(hierarchy.levels.size() - 1, hierarchy.preprocessed,
+                                     hierarchy.levels[hierarchy.preprocessed && hierarchy.levels.size() > 1 ? 1 : 0]);
+    return buildTiledTable(perLevel, hierarchy.levels[plan.baseLevel], hierarchy.finest(), plan);
+}
+
+}  // namespace psub

@@ -1,0 +1,301 @@
+// The tiled table form against the rule oracle: the regular masks of docs/tiled.md, every
+// model with both boundary modes and both rule sets at 1..5 steps, tiles on a torus,
+// watertight borders, threads, widths, normals and the refine facade.
+#include "psub/evaluator.h"
+#include "psub/rules.h"
+#include "psub/stencils.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <numbers>
+
+namespace psub {
+namespace {
+
+// An nu x nv quad torus: vertex (i, j) is j * nu + i, face (i, j) is j * nu + i, counter-clockwise.
+Mesh makeTorus(Index nu, Index nv) {
+    Mesh mesh;
+    mesh.faces.vertexCount = nu * nv;
+    for (Index j = 0; j < nv; ++j)
+        for (Index i = 0; i < nu; ++i) {
+            const double u = 2 * std::numbers::pi * i / nu, v = 2 * std::numbers::pi * j / nv;
+            mesh.positions.insert(mesh.positions.end(),
+                                  {(3 + std::cos(v)) * std::cos(u), (3 + std::cos(v)) * std::sin(u), std::sin(v)});
+            const Index i1 = (i + 1) % nu, j1 = (j + 1) % nv;
+            mesh.faces.addFace(std::vector<Index>{j * nu + i, j * nu + i1, j1 * nu + i1, j1 * nu + i});
+        }
+    return mesh;
+}
+
+test::Loaded loadTorus(Index nu, Index nv) {
+    test::Loaded loaded{makeTorus(nu, nv), {}};
+    loaded.checked = checkMesh(loaded.mesh);
+    return loaded;
+}
+
+double diagonal(const std::vector<double>& p) {
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        lo[i % 3] = std::min(lo[i % 3], p[i]);
+        hi[i % 3] = std::max(hi[i % 3], p[i]);
+    }
+    return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+}
+
+// The tiled evaluator's output for `control`, in canonical order.
+template <class T>
+std::vector<T> tiledCanonical(const TiledTable& table, const std::vector<double>& control, std::uint32_t width = 3,
+                              int threads = 1) {
+    CpuEvaluator<T> evaluator(table, width, threads);
+    const std::vector<T> in(control.begin(), control.end());
+    std::vector<T> drawing(std::size_t(evaluator.refinedCount()) * width), canonical(drawing.size());
+    evaluator.evaluate(in, drawing);
+    toCanonical<T>(table, drawing, canonical, width);
+    return canonical;
+}
+
+template <class T>
+double maxDifference(const std::vector<T>& actual, const std::vector<double>& expected) {
+    EXPECT_EQ(actual.size(), expected.size());
+    double worst = 0;
+    for (std::size_t i = 0; i < std::min(actual.size(), expected.size()); ++i)
+        worst = std::max(worst, std::abs(double(actual[i]) - expected[i]));
+    return worst;
+}
+
+// Weights of the 2-step rule path at finest vertex `point` of a 12 x 12 torus, for the control
+// vertices at grid offsets (dx, dy) from vertex (6, 6); compared with the masks of docs/tiled.md.
+void expectMask(int steps, Index point, const std::vector<std::vector<int>>& maskRowsTopDown, int denominator,
+                int xFrom, int yTop) {
+    const test::Loaded torus = loadTorus(12, 12);
+    const Hierarchy h = test::refine(torus, steps);
+    for (int dy = -4; dy <= 4; ++dy)
+        for (int dx = -4; dx <= 4; ++dx) {
+            std::vector<double> control(torus.mesh.positions.size(), 0.0);
+            control[3 * std::size_t((6 + dy) * 12 + 6 + dx)] = 1.0;
+            const double weight = refinePositions(h, control)[3 * std::size_t(point)];
+            const int row = yTop - dy, column = dx - xFrom;
+            const bool inside = row >= 0 && row < int(maskRowsTopDown.size()) && column >= 0 &&
+                                column < int(maskRowsTopDown[0].size());
+            const double expected = inside ? double(maskRowsTopDown[std::size_t(row)][std::size_t(column)]) / denominator : 0.0;
+            EXPECT_EQ(weight, expected) << "offset " << dx << ", " << dy;
+        }
+}
+
+TEST(Tiled, OneStepRegularMasksAreTheRulePaths) {
+    const Index centre = 6 * 12 + 6;
+    expectMask(1, centre, {{1, 2, 1}, {2, 4, 2}, {1, 2, 1}}, 16, -1, 1);  // V-point of (6, 6)
+    expectMask(1, 144 + centre, {{1, 1}, {1, 1}}, 4, 0, 1);                // F-point of face (6, 6)
+}
+
+TEST(Tiled, TwoStepRegularMasksAreTheRulePaths) {
+    const Index centre = 6 * 12 + 6;
+    const test::Loaded torus = loadTorus(12, 12);
+    const Index edge = torus.checked.connectivity.edgeOf[4 * centre];  // (6, 6) -> (7, 6)
+    expectMask(2, centre,
+               {{0, 1, 2, 1, 0}, {1, 16, 30, 16, 1}, {2, 30, 56, 30, 2}, {1, 16, 30, 16, 1}, {0, 1, 2, 1, 0}}, 256, -2, 2);
+    expectMask(2, 144 + centre, {{2, 10, 10, 2}, {10, 42, 42, 10}, {10, 42, 42, 10}, {2, 10, 10, 2}}, 256, -1, 2);
+    expectMask(2, 144 + 144 + edge, {{4, 28, 28, 4}, {8, 56, 56, 8}, {4, 28, 28, 4}}, 256, -1, 1);
+}
+
+// Max difference, in float and double, over every model, both boundary modes, both rule sets.
+TEST(Tiled, EqualsTheRulesOnEveryModel) {
+    std::vector<std::string> models = test::allValidModels();
+    std::size_t tiles[2][2][2] = {};  // [boundary][rules][odd steps]: tiles met, so the tile path is covered
+    for (const std::string& path : models)
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
+            for (Rules rules : {Rules::Paper, Rules::Robust})
+                for (int steps = 1; steps <= (path.find("cow") != std::string::npos ? 3 : 5); ++steps) {
+                    SCOPED_TRACE(path + " steps " + std::to_string(steps) + " " + boundaryName(boundary) + " " + rulesName(rules));
+                    const test::Loaded loaded = test::load(path);
+                    const Hierarchy h = test::refine(loaded, steps, Preprocess::Auto, boundary);
+                    const TiledTable table = buildTiledTable(h, buildPerLevelTable(h, rules));
+                    tiles[int(boundary)][int(rules)][steps % 2] += table.tileCount();
+                    const std::vector<double> oracle = refinePositions(h, loaded.mesh.positions, rules);
+                    const double scale = diagonal(loaded.mesh.positions);
+                    EXPECT_LE(maxDifference(tiledCanonical<float>(table, loaded.mesh.positions), oracle), 1e-6 * scale);
+                    EXPECT_LE(maxDifference(tiledCanonical<double>(table, loaded.mesh.positions), oracle), 1e-12 * scale);
+                }
+    for (int boundary = 0; boundary < 2; ++boundary)
+        for (int rules = 0; rules < 2; ++rules)
+            for (int odd = 0; odd < 2; ++odd) EXPECT_GT(tiles[boundary][rules][odd], 0u) << boundary << rules << odd;
+}
+
+// On a torus every point is regular: from two steps on, the tiles write every finest point.
+TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
+    const test::Loaded torus = loadTorus(40, 24);
+    const double scale = diagonal(torus.mesh.positions);
+    for (int steps = 1; steps <= 6; ++steps) {
+        SCOPED_TRACE("steps " + std::to_string(steps));
+        const Hierarchy h = test::refine(torus, steps);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        EXPECT_EQ(table.doubleSteps, std::uint32_t(std::min(3, steps / 2)));
+        if (steps >= 2) {
+            EXPECT_GT(table.tileCount(), 0u);
+            EXPECT_EQ(table.fallbackBegin, table.refinedCount);
+            EXPECT_EQ(table.rows.levels.back().rowEnd, table.rows.levels.back().rowBegin);  // no fallback rows
+        }
+        const std::vector<double> oracle = refinePositions(h, torus.mesh.positions);
+        EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), oracle), 1e-6 * scale);
+        EXPECT_LE(maxDifference(tiledCanonical<double>(table, torus.mesh.positions), oracle), 1e-12 * scale);
+    }
+}
+
+// Every finest point is written exactly once: `canonical` is a permutation.
+TEST(Tiled, DrawingOrderIsAPermutation) {
+    for (const std::string& path : {test::dataPath("grid4x4.obj"), test::dataPath("spot_control_mesh.obj")}) {
+        const test::Loaded loaded = test::load(path);
+        const Hierarchy h = test::refine(loaded, 4);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        std::vector<int> seen(table.refinedCount, 0);
+        for (std::uint32_t v : table.canonical) ++seen[v];
+        EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), std::ptrdiff_t(table.refinedCount)) << path;
+    }
+}
+
+// A border point that two tiles compute is bitwise the same in both (and equals what its owner wrote).
+TEST(Tiled, SharedBorderPointsAreBitwiseIdentical) {
+    for (int steps : {2, 4, 6}) {
+        const test::Loaded torus = loadTorus(36, 20);
+        const Hierarchy h = test::refine(torus, steps);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        ASSERT_GT(table.tileCount(), 1u);
+        CpuEvaluator<float> evaluator(table, 3, 1);
+        const std::vector<float> control(torus.mesh.positions.begin(), torus.mesh.positions.end());
+        std::vector<float> refined(3 * std::size_t(table.refinedCount));
+        evaluator.evaluate(control, refined);
+        // Level B's points, for evaluateTile.
+        std::vector<double> baseDouble(torus.mesh.positions);
+        for (std::uint32_t k = 1; k <= table.baseLevel; ++k) baseDouble = refineLevelPositions(h, k, baseDouble);
+        ASSERT_EQ(table.baseLevel, 0u);  // a torus: no paired method, so B = 0 at 2, 4 and 6 steps
+        std::vector<float> scratch(tileScratchSize(table, 3));
+        std::size_t shared = 0;
+        for (std::size_t k = 0; k < table.tileCount(); ++k) {
+            const std::uint32_t L = table.lattice(k);
+            std::vector<float> lattice(3 * std::size_t(L + 1) * (L + 1));
+            evaluateTile<float>(table, k, control.data(), 3, nullptr, scratch.data(), lattice.data());
+            std::size_t e = table.borderBegin[k];
+            for (std::uint32_t y = 0; y <= L; ++y)
+                for (std::uint32_t x = 0; x <= L; x += (y == 0 || y == L) ? 1 : L, ++e) {
+                    const std::uint32_t position = table.border[e];
+                    const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
+                    shared += position < table.output[k] || position >= end;
+                    EXPECT_EQ(std::memcmp(&lattice[3 * (std::size_t(y) * (L + 1) + x)], &refined[3 * std::size_t(position)],
+                                          3 * sizeof(float)), 0)
+                        << "tile " << k << " border point " << x << ", " << y;
+                }
+        }
+        EXPECT_GT(shared, 0u);  // some border points were computed by a tile that does not own them
+    }
+}
+
+TEST(Tiled, ThreadsGiveBitIdenticalResults) {
+    for (const std::string& path : {test::dataPath("cow.obj"), test::dataPath("grid4x4.obj")}) {
+        const test::Loaded loaded = test::load(path);
+        const Hierarchy h = test::refine(loaded, 4);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        EXPECT_EQ(tiledCanonical<float>(table, loaded.mesh.positions, 3, 1),
+                  tiledCanonical<float>(table, loaded.mesh.positions, 3, 4)) << path;
+    }
+    const test::Loaded torus = loadTorus(64, 48);
+    const Hierarchy h = test::refine(torus, 4);
+    const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+    EXPECT_EQ(tiledCanonical<float>(table, torus.mesh.positions, 3, 1), tiledCanonical<float>(table, torus.mesh.positions, 3, 3));
+}
+
+// One evaluator over a changing sequence: each frame is refined from its own control points.
+TEST(Tiled, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {
+    const test::Loaded torus = loadTorus(24, 16);
+    const Hierarchy h = test::refine(torus, 4);
+    const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+    CpuEvaluator<double> evaluator(table, 3, 2);
+    std::vector<double> drawing(3 * std::size_t(table.refinedCount)), canonical(drawing.size());
+    for (int frame = 0; frame < 3; ++frame) {
+        std::vector<double> control = torus.mesh.positions;
+        for (std::size_t i = 0; i < control.size(); ++i) control[i] += 0.1 * std::sin(double(i) + frame);
+        evaluator.evaluate(control, drawing);
+        toCanonical<double>(table, drawing, canonical, 3);
+        EXPECT_LE(maxDifference(canonical, refinePositions(h, control)), 1e-12) << "frame " << frame;
+    }
+}
+
+// Widths 1, 4 and 5 carry linear primvars: value c of a point is that of the same linear function.
+TEST(Tiled, OtherWidthsCarryLinearPrimvars) {
+    const test::Loaded torus = loadTorus(24, 20);
+    const test::Loaded grid = test::load(test::dataPath("grid4x4.obj"));
+    for (const test::Loaded* loaded : {&torus, &grid}) {
+        const Hierarchy h = test::refine(*loaded, 5);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        const std::vector<double> oracle = refinePositions(h, loaded->mesh.positions);
+        const std::size_t controls = loaded->mesh.positions.size() / 3;
+        for (std::uint32_t width : {1u, 4u, 5u}) {
+            std::vector<double> control;
+            for (std::size_t v = 0; v < controls; ++v)
+                for (std::uint32_t c = 0; c < width; ++c) {
+                    const double* p = &loaded->mesh.positions[3 * v];
+                    control.push_back(p[c % 3] + double(c) * (p[0] - 2 * p[1] + 0.5 * p[2]));
+                }
+            const std::vector<double> out = tiledCanonical<double>(table, control, width);
+            for (std::size_t v = 0; v < oracle.size() / 3; ++v)
+                for (std::uint32_t c = 0; c < width; ++c) {
+                    const double* p = &oracle[3 * v];
+                    ASSERT_NEAR(out[v * width + c], p[c % 3] + double(c) * (p[0] - 2 * p[1] + 0.5 * p[2]), 1e-9)
+                        << "width " << width << " vertex " << v;
+                }
+        }
+    }
+}
+
+// Normals of the tiled form (drawing order) are today's definition on its own positions.
+TEST(Tiled, NormalsAreTheDefinitionOnTheTiledPositions) {
+    const test::Loaded torus = loadTorus(32, 24);
+    for (const test::Loaded* loaded : {&torus}) {
+        for (int steps : {3, 4}) {
+            const Hierarchy h = test::refine(*loaded, steps);
+            const PerLevelTable perLevel = buildPerLevelTable(h);
+            const TiledTable table = buildTiledTable(h, perLevel);
+            const SurfaceTable surface = buildSurfaceTable(h.finest().faces);
+            CpuEvaluator<float> tiled(table, 3, 2);
+            const std::vector<float> control(loaded->mesh.positions.begin(), loaded->mesh.positions.end());
+            std::vector<float> drawing(3 * std::size_t(table.refinedCount)), normals(drawing.size());
+            tiled.evaluate(control, drawing);
+            tiled.normals(drawing, normals);
+            std::vector<float> canonical(drawing.size()), canonicalNormals(drawing.size()), expected(drawing.size());
+            toCanonical<float>(table, drawing, canonical, 3);
+            toCanonical<float>(table, normals, canonicalNormals, 3);
+            CpuEvaluator<float> reference(perLevel, FactorizedTable{}, surface, TableForm::PerLevel, 3, 1);
+            reference.normals(canonical, expected);
+            for (std::size_t i = 0; i < expected.size(); ++i)
+                ASSERT_NEAR(canonicalNormals[i], expected[i], 1e-5) << "value " << i;
+        }
+    }
+}
+
+TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
+    const test::Loaded loaded = loadTorus(30, 20);
+    RefineOptions options;
+    options.levels = 5;
+    options.tiled = true;
+    const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
+    const Hierarchy h = test::refine(loaded, 5);
+    const TiledTable expected = buildTiledTable(h, buildPerLevelTable(h));
+    EXPECT_EQ(r.tiled.canonical, expected.canonical);
+    EXPECT_EQ(r.tiled.gather, expected.gather);
+    EXPECT_EQ(r.tiled.rows.indices, expected.rows.indices);
+    EXPECT_EQ(r.tiled.surface.faceVerts, expected.surface.faceVerts);
+    EXPECT_GT(r.tiled.tileCount(), 0u);
+}
+
+TEST(Tiled, TheOtherConstructorRefusesTheTiledForm) {
+    const PerLevelTable perLevel;
+    const FactorizedTable factorized;
+    const SurfaceTable surface;
+    EXPECT_THROW(CpuEvaluator<float>(perLevel, factorized, surface, TableForm::Tiled), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace psub
