@@ -446,7 +446,7 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
         ->check(CLI::Range(1.0, 10000.0))->default_val(30);
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
-    addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (beyond the paper)", "paper");
+    addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");
     pl->add_option("--render", o.renderDir, "also draw every frame offscreen (Vulkan) into DIR/frame_NNNN.png");
     addSize(pl, "--size", o.width, o.height, "picture size for --render", 1, "1280x720");
