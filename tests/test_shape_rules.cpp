@@ -12,11 +12,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <numbers>
 #include <string>
 
 namespace psub {
@@ -112,7 +114,7 @@ Mesh regularTorus() {
     const int k = 8;
     for (int i = 0; i < k; ++i)
         for (int j = 0; j < k; ++j) {
-            const double u = 2 * M_PI * i / k, v = 2 * M_PI * j / k;
+            const double u = 2 * std::numbers::pi * i / k, v = 2 * std::numbers::pi * j / k;
             mesh.positions.insert(mesh.positions.end(),
                                   {(2 + std::cos(v)) * std::cos(u), (2 + std::cos(v)) * std::sin(u), std::sin(v)});
         }
