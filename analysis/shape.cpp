@@ -98,7 +98,8 @@ ShapeCandidate optimizeShapeWeights(Index valence, VertexWeights valence3, const
     TestMesh test(valence, options);
     std::vector<ShapeCandidate> feasible;
     const auto tryWeights = [&](double c, double share) {
-        if (c < 0 || c >= 1 || share < 0 || share > 1) return;
+        if (c < 0 || c >= 1 || share < -1e-9 || share > 1 + 1e-9) return;
+        share = std::clamp(share, 0.0, 1.0);
         ShapeCandidate candidate;
         candidate.valence = valence;
         candidate.weights = weightsOf(valence, c, share);
@@ -116,7 +117,8 @@ ShapeCandidate optimizeShapeWeights(Index valence, VertexWeights valence3, const
     if (feasible.empty()) throw std::runtime_error("optimizeShapeWeights: no candidate meets the gap at valence " + std::to_string(valence));
     const auto better = [](const ShapeCandidate& a, const ShapeCandidate& b) { return a.objective() < b.objective(); };
     const ShapeCandidate coarse = *std::min_element(feasible.begin(), feasible.end(), better);
-    const double share = coarse.weights.diagonal / (1 - coarse.weights.centre) * valence;
+    // The coarse point's share, back on its grid of tenths (the weights carry rounding).
+    const double share = std::round(coarse.weights.diagonal / (1 - coarse.weights.centre) * valence * 10) / 10;
     for (int i = -5; i <= 5; ++i)
         for (int j = -5; j <= 5; ++j) tryWeights(coarse.weights.centre + i * 0.004, share + j * 0.02);
     std::sort(feasible.begin(), feasible.end(), better);

@@ -57,6 +57,7 @@ std::string jsonRecord(const ValenceReport& r) {
            ", \"cc_lambda1\": " + jsonNumber(r.ccLambda1) + ", \"cc_lambda1_closed_form\": " +
            jsonNumber(r.ccLambda1ClosedForm) + ", \"lambda1\": " + jsonNumber(r.lambda1) +
            ", \"lambda3_over_lambda1_squared\": " + jsonNumber(r.lambda3OverLambda1Squared) +
+           ", \"spectral_gap\": " + jsonNumber(r.spectralGap) +
            ", \"matrix_size\": " + std::to_string(r.matrixSize) + ", \"ring_windings\": [";
     for (std::size_t k = 0; k < r.ringWindings.size(); ++k) {
         if (k) out += ", ";
