@@ -382,9 +382,11 @@ void printVerdicts(const Mesh& mesh, const Connectivity& connectivity, int level
         const Fidelity paper = compareLoaded(cube, cubeConnectivity, steps, Rules::Paper, 0);
         const Fidelity shaped = compareLoaded(cube, cubeConnectivity, steps, Rules::Shape, 0);
         const double ratio = shaped.ps.volume / shaped.cc.volume;
-        std::snprintf(text, sizeof text, "volume x%.3f (paper x%.3f), C1 kept (psub analyze --rules shape)", ratio,
-                      paper.ps.volume / paper.cc.volume);
-        verdict("cube, --rules shape (beyond the paper)", text, ratio >= 0.25 ? "closer (>= x0.25)" : "no");
+        const ValenceReport corner = analyzeValence(3, Rules::Shape, quick);
+        const bool c1 = corner.c1Necessary && corner.characteristicMapInjective;
+        std::snprintf(text, sizeof text, "volume x%.3f (paper x%.3f); n = 3: %s, gap %.3f", ratio,
+                      paper.ps.volume / paper.cc.volume, c1 ? "C1" : "not C1", corner.spectralGap);
+        verdict("cube, --rules shape (beyond the paper)", text, ratio >= 0.25 && c1 ? "closer, C1 kept" : "no");
     }
     for (const auto& [label, model, links] : {subjects[1], subjects[0]}) {
         const bool preprocess = needsPreprocessing(model->faces, *links, Preprocess::Auto);
