@@ -207,5 +207,43 @@ TEST(ShapeRules, CubeKeepsAtLeastAQuarterOfCatmullClarksVolumeThroughPsubCompare
     EXPECT_LT(numberAfter(shape, "hausdorff"), numberAfter(paper, "hausdorff"));
 }
 
+struct CommandResult {
+    int status = -1;
+    std::string out;
+};
+
+CommandResult psub(const std::string& args) {
+    const std::string outPath = testing::TempDir() + "/psub-shape-stdout-" + std::to_string(::getpid()) + ".txt";
+    const std::string command = "'" PSUB_EXE "' " + args + " >'" + outPath + "' 2>/dev/null </dev/null";
+    const int raw = std::system(command.c_str());
+    CommandResult run;
+    if (raw != -1 && WIFEXITED(raw)) run.status = WEXITSTATUS(raw);
+    run.out = readFile(outPath);
+    std::filesystem::remove(outPath);
+    return run;
+}
+
+TEST(ShapeRules, AnalyzeReportsTheShapeRulesAndTheOptimiserChecksItsValences) {
+    const CommandResult r = psub("analyze --valence 3,5 --rules shape --json");
+    ASSERT_EQ(r.status, 0);
+    EXPECT_NE(r.out.find("{\"n\": 3, \"rules\": \"shape\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("{\"n\": 5, \"rules\": \"shape\""), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("\"c1_necessary\": false"), std::string::npos) << r.out;
+    EXPECT_GE(numberAfter(r.out, "spectral_gap"), 0.12);
+    EXPECT_EQ(psub("analyze --optimize-shape --valence 5").status, 1);  // must start at 3
+    EXPECT_EQ(psub("compare '" + test::dataPath("cube.obj") + "' --rules other").status, 2);
+}
+
+TEST(ShapeRules, SubdivideWritesTheShapeRulesResult) {
+    const std::string path = testing::TempDir() + "/psub-shape-cube-" + std::to_string(::getpid()) + ".obj";
+    const CommandResult r = psub("subdivide '" + test::dataPath("cube.obj") + "' -o '" + path + "' --levels 2 --rules shape");
+    ASSERT_EQ(r.status, 0);
+    const test::Loaded written = load(path), cube = load(test::dataPath("cube.obj"));
+    std::filesystem::remove(path);
+    const std::vector<double> oracle = refinePositions(test::refine(cube, 2), cube.mesh.positions, Rules::Shape);
+    ASSERT_EQ(written.mesh.positions.size(), oracle.size());
+    for (std::size_t i = 0; i < oracle.size(); ++i) EXPECT_NEAR(written.mesh.positions[i], oracle[i], 1e-5) << "value " << i;
+}
+
 }  // namespace
 }  // namespace psub
