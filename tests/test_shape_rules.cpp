@@ -207,6 +207,21 @@ TEST(ShapeRules, CubeKeepsAtLeastAQuarterOfCatmullClarksVolumeThroughPsubCompare
     EXPECT_LT(numberAfter(shape, "hausdorff"), numberAfter(paper, "hausdorff"));
 }
 
+TEST(ShapeRules, TheOptimisersTestMeshIsTheCubeAtValence3AndHasTwoPolesOfValenceN) {
+    const Mesh three = trapezohedron(3);
+    EXPECT_NEAR(measureMesh(three.faces, three.positions).volume, 8.0, 1e-12);  // the cube [-1, 1]^3, turned
+    for (Index n : {3u, 5u, 16u}) {
+        const Mesh mesh = trapezohedron(n);
+        const CheckedMesh checked = checkMesh(mesh);
+        ASSERT_EQ(mesh.faces.faceCount(), 2 * n);
+        EXPECT_EQ(checked.connectivity.valence[0], n);
+        EXPECT_EQ(checked.connectivity.valence[1], n);
+        for (Index v = 2; v < mesh.faces.vertexCount; ++v) EXPECT_EQ(checked.connectivity.valence[v], 3u);
+        EXPECT_GT(measureMesh(mesh.faces, mesh.positions).volume, 0.0);  // counter-clockwise from outside
+    }
+    EXPECT_THROW(trapezohedron(2), std::invalid_argument);
+}
+
 struct CommandResult {
     int status = -1;
     std::string out;
