@@ -7,8 +7,11 @@
 
 #include <omp.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
 namespace psub {
@@ -260,6 +263,44 @@ double Fidelity::meanDistance() const {
     return count ? sum / double(count) : 0;
 }
 
+namespace {
+
+// Fidelity::evNormalSpreads of a P-S result.
+std::vector<double> extraordinaryNormalSpreads(const Faces& faces, std::span<const double> p) {
+    const Connectivity c = buildConnectivity(faces);
+    std::vector<std::vector<std::array<double, 3>>> normals(faces.vertexCount);
+    for (Index v = 0; v < faces.vertexCount; ++v)
+        if (c.kind[v] == VertexKind::Interior && c.valence[v] != 4) normals[v].reserve(c.valence[v]);
+    for (Index f = 0; f < faces.faceCount(); ++f) {
+        const auto corners = faces.face(f);
+        std::array<double, 3> n{0, 0, 0};  // Newell's normal
+        for (std::size_t k = 0; k < corners.size(); ++k) {
+            const double* a = &p[3 * std::size_t(corners[k])];
+            const double* b = &p[3 * std::size_t(corners[(k + 1) % corners.size()])];
+            n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        }
+        const double length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (length > 0)
+            for (double& x : n) x /= length;
+        for (Index v : corners)
+            if (normals[v].capacity() > 0) normals[v].push_back(n);
+    }
+    std::vector<double> out;
+    for (const auto& around : normals) {
+        if (around.empty()) continue;
+        double lowest = 1;
+        for (std::size_t a = 0; a < around.size(); ++a)
+            for (std::size_t b = a + 1; b < around.size(); ++b)
+                lowest = std::min(lowest, around[a][0] * around[b][0] + around[a][1] * around[b][1] + around[a][2] * around[b][2]);
+        out.push_back(std::acos(std::clamp(lowest, -1.0, 1.0)) * 180 / std::numbers::pi);
+    }
+    return out;
+}
+
+}  // namespace
+
 Fidelity compareWithCatmark(const Mesh& mesh, const Connectivity& connectivity, int psSteps, Rules rules,
                             int samplesPerEdge, Boundary boundary) {
     if (psSteps < 0 || psSteps % 2 != 0 || samplesPerEdge < 0)
@@ -281,6 +322,8 @@ Fidelity compareWithCatmark(const Mesh& mesh, const Connectivity& connectivity, 
     psFaces.vertexCount = refinement.surface.vertexCount;
     psFaces.offsets = refinement.surface.faceOffsets;
     psFaces.verts = refinement.surface.faceVerts;
+
+    out.evNormalSpreads = extraordinaryNormalSpreads(psFaces, ps);
 
     const std::vector<CatmarkLevel> cc = refineCatmark(mesh.faces, mesh.positions, out.ccLevels);
     const CatmarkLevel& finest = cc.back();

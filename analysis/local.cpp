@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 
 namespace psub {
@@ -154,6 +155,12 @@ LocalMatrix extractMatrix(int n, int rings, std::span<const GridKey> coarseKeys,
     return out;
 }
 
+void setQuadVertexWeights(PerLevelTable& table, Index valence, VertexWeights weights) {
+    for (RowGroup& group : table.groups)
+        if (group.kind == RowKind::VertexQuad && group.n == valence)
+            std::tie(group.centre, group.edge, group.diagonal) = std::tuple(weights.centre, weights.edge, weights.diagonal);
+}
+
 SparseRowsD composePerLevel(const PerLevelTable& table) {
     SparseRowsD current;  // control -> control: the identity
     current.offsets.resize(std::size_t(table.controlCount) + 1);
@@ -241,15 +248,29 @@ LocalMesh makeLocalMesh(Index valence, int rings, double bump) {
     return out;
 }
 
-LocalMatrix psTwoStepMatrix(Index valence, Rules rules, int rings) {
+namespace {
+
+LocalMatrix twoStepMatrix(Index valence, Rules rules, const VertexWeights* centre, int rings) {
     if (rings < 3) throw std::invalid_argument("psTwoStepMatrix: rings >= 3");
     const LocalMesh local = makeLocalMesh(valence, rings + 2);
     const Connectivity connectivity = buildConnectivity(local.mesh.faces);
     const Hierarchy hierarchy = refineTopology(local.mesh.faces, connectivity, false, 2);
-    const PerLevelTable table = buildPerLevelTable(hierarchy, rules);
+    PerLevelTable table = buildPerLevelTable(hierarchy, rules);
+    if (centre) detail::setQuadVertexWeights(table, valence, *centre);
     const std::vector<GridKey> fine =
         refineKeysTwoSteps(int(valence), hierarchy.levels[0].faces, local.keys, hierarchy.levels[1].faces);
     return extractMatrix(int(valence), rings, local.keys, fine, composePerLevel(table), "P-S two-step matrix");
+}
+
+}  // namespace
+
+LocalMatrix psTwoStepMatrix(Index valence, Rules rules, int rings) {
+    return twoStepMatrix(valence, rules, nullptr, rings);
+}
+
+LocalMatrix psTwoStepMatrix(Index valence, VertexWeights centre, int rings) {
+    if (valence == 4) throw std::invalid_argument("psTwoStepMatrix: explicit centre weights need valence != 4");
+    return twoStepMatrix(valence, Rules::Paper, &centre, rings);
 }
 
 LocalMatrix catmarkOneStepMatrix(Index valence, int rings) {

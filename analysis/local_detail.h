@@ -41,6 +41,10 @@ std::vector<GridKey> neighbourhoodKeys(int n, int rings);
 LocalMatrix extractMatrix(int n, int rings, std::span<const GridKey> coarseKeys,
                           std::span<const GridKey> fineKeys, const SparseRowsD& rows, const char* what);
 
+// Gives every VertexQuad row of valence `valence` in `table` the weights `weights` (the rows
+// carry their weights per group, so every evaluator of the table follows).
+void setQuadVertexWeights(PerLevelTable& table, Index valence, VertexWeights weights);
+
 // The per-level table's steps composed in double: control points -> finest level.
 SparseRowsD composePerLevel(const PerLevelTable& table);
 

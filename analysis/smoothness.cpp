@@ -159,7 +159,8 @@ ValenceReport analyzeValence(Index valence, Rules rules, const ValenceOptions& o
 
     // The whole matrix on `rings` rings; its 3-ring block is the 3-ring matrix (rows of ring
     // <= 3 never reach further out: the neighbourhood is invariant).
-    const LocalMatrix whole = psTwoStepMatrix(valence, rules, rings);
+    const LocalMatrix whole = options.centreWeights ? psTwoStepMatrix(valence, *options.centreWeights, rings)
+                                                    : psTwoStepMatrix(valence, rules, rings);
     const MatrixView matrix = view(whole);
     std::vector<Eigen::Index> ringBegin{0, 1};  // rows of ring k: ringBegin[k] .. ringBegin[k+1]
     for (int k = 1; k <= rings; ++k) ringBegin.push_back(ringBegin.back() + 2 * k * n);
@@ -178,6 +179,7 @@ ValenceReport analyzeValence(Index valence, Rules rules, const ValenceOptions& o
     const bool realEqualPair = isReal(l1) && isReal(l2) && std::abs(l1.real() - l2.real()) <= tol * std::max(1.0, std::abs(l1));
     report.lambda1 = l1.real();
     report.lambda3OverLambda1Squared = std::abs(l3) / (l1.real() * l1.real());
+    report.spectralGap = l1.real() - std::abs(l3);
     report.c1Necessary = std::abs(l0 - 1.0) <= tol && realEqualPair && l1.real() > 0 &&
                          l1.real() < 1 - tol && l1.real() > std::abs(l3) + tol;
 

@@ -8,6 +8,7 @@
 #include "psub/catmark.h"
 #include "psub/stencils.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +21,8 @@ namespace {
 std::vector<Rules> rulesOf(const std::string& name) {
     if (name == "paper") return {Rules::Paper};
     if (name == "robust") return {Rules::Robust};
+    if (name == "shape") return {Rules::Shape};
+    if (name == "all") return {Rules::Paper, Rules::Robust, Rules::Shape};
     return {Rules::Paper, Rules::Robust};
 }
 
@@ -38,7 +41,8 @@ Json jsonRecord(const ValenceReport& r) {
     return {{"n", r.valence}, {"rules", rulesName(r.rules)}, {"eigenvalues", eigenvalues},
             {"c1_necessary", r.c1Necessary}, {"characteristic_map_injective", r.characteristicMapInjective},
             {"cc_lambda1", r.ccLambda1}, {"cc_lambda1_closed_form", r.ccLambda1ClosedForm}, {"lambda1", r.lambda1},
-            {"lambda3_over_lambda1_squared", r.lambda3OverLambda1Squared}, {"matrix_size", r.matrixSize},
+            {"lambda3_over_lambda1_squared", r.lambda3OverLambda1Squared},
+            {"spectral_gap", r.spectralGap}, {"matrix_size", r.matrixSize},
             {"ring_windings", r.ringWindings}, {"annulus_faces", r.annulusFaces},
             {"folded_annulus_faces", r.foldedAnnulusFaces}, {"normal_spread_degrees", r.normalSpreadDegrees}};
 }
@@ -95,6 +99,45 @@ int runBoundaryAspect(const AnalyzeOptions& options) {
     return 0;
 }
 
+// psub analyze --optimize-shape: Rules::Shape's weights searched per valence (3 first: the
+// test meshes of the others have valence-3 vertices), as a table and as rules.cpp's array.
+int runOptimizeShape(const AnalyzeOptions& options) {
+    std::vector<Index> valences;
+    for (Index n : parseValences(options.valences))
+        if (n >= 3 && n != 4) valences.push_back(n);
+    if (valences.empty() || valences.front() != 3)
+        throw InputError("--optimize-shape: the valences must start at 3 (the others' test meshes have valence-3 corners)");
+    ShapeSearchOptions search;
+    search.minimumGap = options.minimumGap;
+    search.maximumNormalSpread = options.maximumSpread;
+    std::printf("| n | c | d | e | lambda1 | gap (paper) | volume ratio (paper) | Hausdorff / diagonal (paper) | "
+                "normal spread deg (paper) |\n|---|---|---|---|---|---|---|---|---|\n");
+    std::vector<ShapeCandidate> chosen;
+    VertexWeights valence3 = quadVertexWeights(3, Rules::Paper);
+    ValenceOptions paperCheck;
+    for (Index n : valences) {
+        const ShapeCandidate best = optimizeShapeWeights(n, valence3, search);
+        if (n == 3) valence3 = best.weights;
+        // The paper's rules measured the same way (its valence-3 corners too).
+        paperCheck.centreWeights = quadVertexWeights(n, Rules::Paper);
+        const ValenceReport paper = analyzeValence(n, Rules::Paper, paperCheck);
+        const Mesh test = trapezohedron(n);
+        const CheckedMesh checked = checkMesh(test);
+        const Fidelity f = compareWithCatmark(test, checked.connectivity, search.psSteps, Rules::Paper, search.samplesPerEdge);
+        std::printf("| %u | %.4f | %.6f | %.6f | %.6f | %.4f (%.4f) | %.4f (%.4f) | %.4f (%.4f) | %.2f (%.2f) |\n", n,
+                    best.weights.centre, best.weights.edge, best.weights.diagonal, best.lambda1, best.spectralGap,
+                    paper.spectralGap, best.volumeRatio, f.ps.volume / f.cc.volume, best.hausdorff,
+                    f.hausdorff() / f.cc.diagonal(), best.normalSpreadDegrees, paper.normalSpreadDegrees.back());
+        std::fflush(stdout);
+        chosen.push_back(best);
+    }
+    std::printf("\nrules.cpp (c, d, e per valence; valence 4 keeps the regular rule):\n");
+    for (const ShapeCandidate& best : chosen)
+        std::printf("    {%u, {%.17g, %.17g, %.17g}},\n", best.valence, best.weights.centre, best.weights.edge,
+                    best.weights.diagonal);
+    return 0;
+}
+
 }  // namespace
 
 std::vector<Index> parseValences(const std::string& text) {
@@ -128,6 +171,7 @@ std::vector<Index> parseValences(const std::string& text) {
 
 int runAnalyze(const AnalyzeOptions& options) {
     if (!options.boundaryModel.empty()) return runBoundaryAspect(options);
+    if (options.optimizeShape) return runOptimizeShape(options);
     const std::vector<Index> valences = parseValences(options.valences);
     ValenceOptions valenceOptions;
     valenceOptions.characteristicRings = options.rings;
@@ -169,7 +213,8 @@ int runAnalyze(const AnalyzeOptions& options) {
     if (options.json) std::printf("\n]\n");
     else
         std::printf("\nl3/l1^2 = 1: bounded curvature; > 1: curvature grows without bound at the vertex; < 1: a flat spot.\n"
-                    "Robust rules (beyond the paper) differ only at valence 2: c, d, e = 0, 1/3, 1/6.\n");
+                    "Robust rules (beyond the paper) differ only at valence 2: c, d, e = 0, 1/3, 1/6. Shape rules (beyond\n"
+                    "the paper) also change c, d, e at valence 3 and 5..16 to keep the shape (docs/shape-rules.md).\n");
     return 0;
 }
 
@@ -177,7 +222,7 @@ int runCompare(const CompareOptions& options) {
     if (options.levels % 2 != 0) throw InputError("--levels must be even: P-S after 2k steps against Catmull-Clark after k");
     CheckedMesh checked;
     const Mesh mesh = loadChecked(options.input, checked);
-    const Rules rules = options.rules == "robust" ? Rules::Robust : Rules::Paper;
+    const Rules rules = options.rules == "robust" ? Rules::Robust : options.rules == "shape" ? Rules::Shape : Rules::Paper;
     const Fidelity f = compareLoaded(mesh, checked.connectivity, options.levels, rules, options.samples, options.boundary);
     const double diagonal = f.cc.diagonal();
     const auto maxOf = [](const std::vector<double>& v) {
@@ -189,6 +234,11 @@ int runCompare(const CompareOptions& options) {
         double s = 0;
         for (double d : v) s += d;
         return v.empty() ? 0.0 : s / double(v.size());
+    };
+    const auto medianOf = [](std::vector<double> v) {
+        if (v.empty()) return 0.0;
+        std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+        return v[v.size() / 2];
     };
     if (options.json) {
         const auto measures = [&](const MeshMeasures& m) {
@@ -202,7 +252,10 @@ int runCompare(const CompareOptions& options) {
                            {"hausdorff", f.hausdorff()}, {"ps_to_cc_max", maxOf(f.psToCc)},
                            {"ps_to_cc_mean", meanOf(f.psToCc)}, {"cc_to_ps_max", maxOf(f.ccToPs)},
                            {"cc_to_ps_mean", meanOf(f.ccToPs)},
-                           {"samples_each_way", {f.psToCc.size(), f.ccToPs.size()}}};
+                           {"samples_each_way", {f.psToCc.size(), f.ccToPs.size()}},
+                           {"ev_count", f.evNormalSpreads.size()},
+                           {"ev_normal_spread_max", maxOf(f.evNormalSpreads)},
+                           {"ev_normal_spread_median", medianOf(f.evNormalSpreads)}};
         std::printf("%s\n", jsonText(json).c_str());
     } else {
         std::printf("%s: P-S %d steps (%s rules, %s boundary) against Catmull-Clark %d level%s (OpenSubdiv)\n\n",
@@ -231,6 +284,9 @@ int runCompare(const CompareOptions& options) {
         std::printf("  Catmull-Clark to P-S   max %.6g (%.4g)  mean %.6g (%.4g)\n", maxOf(f.ccToPs), maxOf(f.ccToPs) / diagonal,
                     meanOf(f.ccToPs), meanOf(f.ccToPs) / diagonal);
         std::printf("  Hausdorff (two-sided)  %.6g (%.4g)\n", f.hausdorff(), f.hausdorff() / diagonal);
+        std::printf("\nNormal spread around the %zu interior vertices of valence != 4 (the input's extraordinary\n"
+                    "vertices, the paired method's centroids): max %.3g deg, median %.3g deg\n",
+                    f.evNormalSpreads.size(), maxOf(f.evNormalSpreads), medianOf(f.evNormalSpreads));
     }
     if (!options.plot.empty()) {
         writeFidelityPlot(options.plot, f, std::filesystem::path(options.input).filename().string());
@@ -295,6 +351,16 @@ void printVerdicts(const Mesh& mesh, const Connectivity& connectivity, int level
         std::snprintf(text, sizeof text, "volume x%.3f, area x%.3f (P-S %d steps / CC %d)", ratio, f.ps.area / f.cc.area,
                       steps, steps / 2);
         verdict("keeps the shape (like CC): " + label, text, std::abs(1 - ratio) <= 0.02 ? "yes (within 2%)" : "no (shrinks)");
+    }
+    {
+        const Fidelity paper = compareLoaded(cube, cubeConnectivity, steps, Rules::Paper, 0);
+        const Fidelity shaped = compareLoaded(cube, cubeConnectivity, steps, Rules::Shape, 0);
+        const double ratio = shaped.ps.volume / shaped.cc.volume;
+        const ValenceReport corner = analyzeValence(3, Rules::Shape, quick);
+        const bool c1 = corner.c1Necessary && corner.characteristicMapInjective;
+        std::snprintf(text, sizeof text, "volume x%.3f (paper x%.3f); n = 3: %s, gap %.3f", ratio,
+                      paper.ps.volume / paper.cc.volume, c1 ? "C1" : "not C1", corner.spectralGap);
+        verdict("cube, --rules shape (beyond the paper)", text, ratio >= 0.25 && c1 ? "closer, C1 kept" : "no");
     }
     for (const auto& [label, model, links] : {subjects[1], subjects[0]}) {
         const bool preprocess = needsPreprocessing(model->faces, *links, Preprocess::Auto);

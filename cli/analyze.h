@@ -12,12 +12,15 @@ namespace psub::cli {
 
 struct AnalyzeOptions {
     std::string valences = "2..16";  // "A..B", "N" or a comma list of both
-    std::string rules = "both";      // paper, robust or both
+    std::string rules = "both";      // paper, robust, shape, both (paper, robust) or all
     bool json = false;
     int rings = 8;    // characteristic map's control net
     int levels = 10;  // two-step levels of the tangent-plane check
     std::string boundaryModel;  // set: report boundary triangle shapes of this mesh instead
     int boundaryLevels = 11;    // P-S steps of that report
+    bool optimizeShape = false;  // set: search Rules::Shape's weights at each valence instead
+    double minimumGap = 0.12;    // of that search (see psub/analysis.h)
+    double maximumSpread = 30;   // degrees, of that search
 };
 
 struct CompareOptions {

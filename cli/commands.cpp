@@ -180,7 +180,7 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     }
     const Faces finest = finestFaces(refinement.surface);
     const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") +
-                             preprocessName(preprocess) + (o.rules == Rules::Robust ? ", robust rules" : "") +
+                             preprocessName(preprocess) + (o.rules != Rules::Paper ? std::string(", ") + rulesName(o.rules) + " rules" : "") +
                              (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
     writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),

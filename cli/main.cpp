@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
     addPreprocess(sub, subdivide.preprocess);
     addChoice(sub, "--rules", subdivide.rules, kRulesNames,
               "paper: docs/scheme.md exactly; robust (beyond the paper): interior valence 2 gets c, d, e = "
-              "0, 1/3, 1/6 instead of the paper's folding -1/2, 1/2, 1/4 (--scheme ps only)",
+              "0, 1/3, 1/6 instead of the paper's folding -1/2, 1/2, 1/4; shape (beyond the paper): robust, and "
+              "centre weights at valence 3 and 5..16 that keep more of the shape, C1 kept (--scheme ps only)",
               "paper");
     addChoice(sub, "--boundary", subdivide.boundary, kBoundaryNames,
               "paper: docs/scheme.md exactly, the boundary is never refined (its triangles grow thin); "
@@ -162,8 +163,10 @@ int main(int argc, char** argv) {
             },
             "VALENCES"))
         ->default_val("2..16");
-    an->add_option("--rules", analyze.rules, "paper, robust (beyond the paper: valence 2 fixed) or both")
-        ->check(CLI::IsMember({"paper", "robust", "both"}))->default_val("both");
+    an->add_option("--rules", analyze.rules,
+                   "paper, robust (beyond the paper: valence 2 fixed), shape (beyond the paper: keeps the shape at "
+                   "low valence), both (paper and robust) or all")
+        ->check(CLI::IsMember({"paper", "robust", "shape", "both", "all"}))->default_val("both");
     an->add_flag("--json", analyze.json,
                  "a JSON array, one record per (valence, rules): n, rules, eigenvalues (the leading 6, "
                  "descending by modulus, each [re, im]), c1_necessary, characteristic_map_injective, "
@@ -173,6 +176,13 @@ int main(int argc, char** argv) {
     an->add_option("--boundary-aspect", analyze.boundaryModel,
                    "instead: the shape of the triangles along this mesh's boundary after each P-S step, "
                    "--boundary paper beside smooth");
+    an->add_flag("--optimize-shape", analyze.optimizeShape,
+                 "instead: search the shape rules' centre weights per valence (--valence, from 3) and print "
+                 "them as a table and as rules.cpp's array");
+    addReal(an, "--min-gap", analyze.minimumGap, 0.0, 1.0,
+            "--optimize-shape: least lambda1 - |lambda3| (or the paper's, if less)", 0.12);
+    addReal(an, "--max-spread", analyze.maximumSpread, 0.0, 180.0,
+            "--optimize-shape: largest normal spread (degrees) after 10 two-step levels", 30);
     addInteger(an, "--boundary-levels", analyze.boundaryLevels, 1, 16, "P-S steps of --boundary-aspect", 11);
     an->footer("For an interior vertex of valence n surrounded by quads, builds the two-step P-S matrix from the\n"
                "engine's stencil tables, and Catmull-Clark's from OpenSubdiv's. The paper's rules fail C1 at\n"
@@ -192,8 +202,8 @@ int main(int argc, char** argv) {
                                             return odd ? std::string("must be even") : std::string();
                                         },
                                         "EVEN"));
-    co->add_option("--rules", compare.rules, "P-S rules: paper or robust")
-        ->check(CLI::IsMember({"paper", "robust"}))->default_val("paper");
+    co->add_option("--rules", compare.rules, "P-S rules: paper, robust or shape (both beyond the paper)")
+        ->check(CLI::IsMember({"paper", "robust", "shape"}))->default_val("paper");
     addChoice(co, "--boundary", compare.boundary, kBoundaryNames,
               "paper: the boundary is never refined; smooth (beyond the paper): split every second step, "
               "so the boundary is Catmull-Clark's",

@@ -413,7 +413,7 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addReal(pl, "--anim-fps", o.animationFps, 1, 10000, "animation time per frame is 1/this seconds", 30);
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
-    addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (beyond the paper)", "paper");
+    addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");
     pl->add_option("--render", o.renderDir, "also draw every frame offscreen (Vulkan) into DIR/frame_NNNN.png");
     addSize(pl, "--size", o.width, o.height, "picture size for --render", 1, "1280x720");

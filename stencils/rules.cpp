@@ -5,10 +5,48 @@
 
 namespace psub {
 
-const char* rulesName(Rules rules) { return rules == Rules::Robust ? "robust" : "paper"; }
+namespace {
+
+// Rules::Shape's c, d, e per valence, from
+//   psub analyze --optimize-shape --valence 3..16
+// (centre weights searched per valence under the C1 conditions, closest to Catmull-Clark on
+// the trapezohedron of that valence; docs/shape-rules.md tabulates what each gives).
+struct ShapeEntry {
+    Index valence;
+    VertexWeights weights;
+};
+constexpr ShapeEntry kShapeWeights[] = {
+    {3, {0.73999999999999999, 0, 0.08666666666666667}},
+    {5, {0.75600000000000001, 0.045871999999999996, 0.002928}},
+    {6, {0.79600000000000004, 0.033999999999999996, 0}},
+    {7, {0.82399999999999995, 0.025142857142857151, 0}},
+    {8, {0.84399999999999997, 0.019500000000000003, 0}},
+    {9, {0.81200000000000006, 0.014622222222222215, 0.006266666666666666}},
+    {10, {0.88800000000000001, 0.010751999999999999, 0.00044799999999999994}},
+    {11, {0.90800000000000003, 0.007694545454545453, 0.00066909090909090889}},
+    {12, {0.91600000000000004, 0.0062999999999999974, 0.00069999999999999967}},
+    {13, {0.93999999999999995, 0.0030461538461538486, 0.0015692307692307707}},
+    {14, {0.94000000000000006, 0.00059999999999999951, 0.0036857142857142822}},
+    {15, {0.95999999999999996, 0.000693333333333334, 0.0019733333333333352}},
+    {16, {0.95599999999999996, 0.0017600000000000014, 0.00099000000000000108}},
+};
+
+}  // namespace
+
+const char* rulesName(Rules rules) {
+    switch (rules) {
+    case Rules::Robust: return "robust";
+    case Rules::Shape: return "shape";
+    case Rules::Paper: break;
+    }
+    return "paper";
+}
 
 VertexWeights quadVertexWeights(Index n, Rules rules) {
-    if (rules == Rules::Robust && n == 2) return {0.0, 1.0 / 3, 1.0 / 6};
+    if (rules != Rules::Paper && n == 2) return {0.0, 1.0 / 3, 1.0 / 6};
+    if (rules == Rules::Shape)
+        for (const ShapeEntry& entry : kShapeWeights)
+            if (entry.valence == n) return entry.weights;
     const double nd = n;
     return {(nd - 3) / nd, 2 / (nd * nd), 1 / (nd * nd)};
 }

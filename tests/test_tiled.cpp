@@ -102,13 +102,13 @@ TEST(Tiled, TwoStepRegularMasksAreTheRulePaths) {
     expectMask(2, 144 + 144 + edge, {{4, 28, 28, 4}, {8, 56, 56, 8}, {4, 28, 28, 4}}, 256, -1, 1);
 }
 
-// Max difference, in float and double, over every model, both boundary modes, both rule sets.
+// Max difference, in float and double, over every model, both boundary modes, all three rule sets.
 TEST(Tiled, EqualsTheRulesOnEveryModel) {
     std::vector<std::string> models = test::allValidModels();
-    std::size_t tiles[2][2][2] = {};  // [boundary][rules][odd steps]: tiles met, so the tile path is covered
+    std::size_t tiles[2][3][2] = {};  // [boundary][rules][odd steps]: tiles met, so the tile path is covered
     for (const std::string& path : models)
         for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
-            for (Rules rules : {Rules::Paper, Rules::Robust})
+            for (Rules rules : {Rules::Paper, Rules::Robust, Rules::Shape})
                 for (int steps = 1; steps <= (path.find("cow") != std::string::npos ? 3 : 5); ++steps) {
                     SCOPED_TRACE(path + " steps " + std::to_string(steps) + " " + boundaryName(boundary) + " " + rulesName(rules));
                     const test::Loaded loaded = test::load(path);
@@ -121,7 +121,7 @@ TEST(Tiled, EqualsTheRulesOnEveryModel) {
                     EXPECT_LE(maxDifference(tiledCanonical<double>(table, loaded.mesh.positions), oracle), 1e-12 * scale);
                 }
     for (int boundary = 0; boundary < 2; ++boundary)
-        for (int rules = 0; rules < 2; ++rules)
+        for (int rules = 0; rules < 3; ++rules)
             for (int odd = 0; odd < 2; ++odd) EXPECT_GT(tiles[boundary][rules][odd], 0u) << boundary << rules << odd;
 }
 

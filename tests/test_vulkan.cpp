@@ -112,10 +112,12 @@ struct Tables {
     SurfaceTable surface;
 };
 
-Tables tablesFor(const std::string& path, int steps, bool factorized = true, Boundary boundary = Boundary::Paper) {
+Tables tablesFor(const std::string& path, int steps, bool factorized = true, Boundary boundary = Boundary::Paper,
+                 Rules rules = Rules::Paper) {
     Tables t{test::load(path), {}, {}, {}};
     RefineOptions options{steps, Preprocess::Auto, factorized, {}};
     options.boundary = boundary;
+    options.rules = rules;
     const Refinement r = refine(t.loaded.mesh, t.loaded.checked.connectivity, options);
     t.perLevel = r.perLevel;
     t.factorized = r.factorized;
@@ -194,6 +196,13 @@ TEST_P(VulkanModel, EqualsTheCpuEvaluatorOverChangingFramesBothFormsWidths3And4)
                 SCOPED_TRACE(GetParam() + " steps " + std::to_string(steps));
                 compareWithCpu(context(), tablesFor(GetParam(), steps), form, width, 3);
             }
+}
+
+// Rules::Shape's weights are only weights: the same kernels carry them (the CPU evaluator is
+// checked against the rule oracle for them in test_shape_rules.cpp).
+TEST_P(VulkanModel, ShapeRulesEqualTheCpuEvaluatorBothForms) {
+    const Tables t = tablesFor(GetParam(), 3, true, Boundary::Paper, Rules::Shape);
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) compareWithCpu(context(), t, form, 3, 2);
 }
 
 std::string modelName(const ::testing::TestParamInfo<std::string>& info) {

@@ -15,6 +15,7 @@
 #include <array>
 #include <complex>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -68,6 +69,10 @@ struct LocalMatrix {
 // Throws std::logic_error when a row reaches outside the neighbourhood or does not sum to 1.
 LocalMatrix psTwoStepMatrix(Index valence, Rules rules, int rings = 3);
 
+// The same with the centre's weights (c, d, e) replaced by `centre` in the table (the shape
+// optimiser's candidates). valence != 4: every other interior vertex there is regular.
+LocalMatrix psTwoStepMatrix(Index valence, VertexWeights centre, int rings = 3);
+
 // Catmull-Clark's one-step matrix from OpenSubdiv's stencils
 // (Far::StencilTableFactoryReal<double> on a Far::TopologyRefiner of makeLocalMesh, one
 // uniform level), matched by grid key the same way. rings >= 1. Same checks.
@@ -88,6 +93,8 @@ struct ValenceOptions {
     int characteristicRings = 8;  // rings of the characteristic map's control net, >= 4
     int tangentLevels = 10;       // two-step levels of the tangent-plane check, >= 1
     double tolerance = 1e-8;      // relative: "real", "equal" and "larger" for eigenvalues
+    // Set: the centre's weights instead of those of the rule set (valence != 4).
+    std::optional<VertexWeights> centreWeights;
 };
 
 struct ValenceReport {
@@ -99,6 +106,7 @@ struct ValenceReport {
     bool c1Necessary = false;
     double lambda1 = 0;                    // real part of the subdominant eigenvalue
     double lambda3OverLambda1Squared = 0;  // |lambda3| / lambda1^2: curvature (1: bounded)
+    double spectralGap = 0;                // lambda1 - |lambda3|: how safely C1's margin holds
     // Characteristic map: the two subdominant eigenvectors, extended to characteristicRings
     // rings, map the control net to the plane. Injective when every control ring winds once
     // around the origin (all the same way) and every face of the outer annulus
@@ -146,6 +154,10 @@ struct Fidelity {
     Index psFaces = 0, ccFaces = 0;
     MeshMeasures input, ps, cc;
     std::vector<double> psToCc, ccToPs;  // sampled distances, each direction
+    // Per interior vertex of the P-S result whose valence is not 4 (the input's extraordinary
+    // vertices and the paired method's centroids; every later vertex has valence 4): the largest
+    // angle in degrees between the normals of two faces around it. Near 0: smooth there.
+    std::vector<double> evNormalSpreads;
     double hausdorff() const;            // max over both directions
     double meanDistance() const;         // over all samples of both directions
 };
@@ -181,5 +193,46 @@ std::vector<BoundaryAspect> boundaryAspectByLevel(const Mesh& mesh, const Connec
 // titled `title`. Written by psub::writePng (atomic for a regular file); throws a std::runtime_error
 // (psub::OutputError when writing fails) naming the path.
 void writeFidelityPlot(const std::string& path, const Fidelity& fidelity, const std::string& title);
+
+// ---------------------------------------------------------------------------------------
+// The shape optimiser behind Rules::Shape (run once: `psub analyze --optimize-shape`; its
+// output is the table in rules.cpp). Only the centre weights (c, d, e) of a valence change, so
+// only the rotation-invariant part of the two-step matrix moves: lambda1 and the
+// characteristic map stay, and C1 holds while the other eigenvalues stay below lambda1.
+
+// A closed quad mesh with two poles of valence n on the z axis at +-sqrt(3) and 2n vertices
+// of valence 3, alternating at z = +-1/sqrt(3) on the circle of radius sqrt(8/3): the n-gonal
+// trapezohedron. n = 3 is the cube [-1, 1]^3, turned to stand on a corner. n >= 3.
+Mesh trapezohedron(Index n);
+
+struct ShapeSearchOptions {
+    int psSteps = 4;                   // P-S steps against Catmull-Clark psSteps / 2 levels
+    int samplesPerEdge = 2;            // of the Hausdorff distance
+    double minimumGap = 0.12;          // lambda1 - |lambda3|, or the paper's own gap if smaller
+    double maximumNormalSpread = 30;   // degrees, analyzeValence's after 10 two-step levels
+};
+
+// One candidate's centre weights at one valence and what they give.
+struct ShapeCandidate {
+    Index valence = 0;
+    VertexWeights weights{};
+    double lambda1 = 0, spectralGap = 0;  // of the 3-ring two-step matrix
+    double volumeRatio = 0;               // P-S / Catmull-Clark on trapezohedron(valence)
+    double hausdorff = 0;                 // two-sided, relative to Catmull-Clark's box diagonal
+    double normalSpreadDegrees = 0;       // set by the full check only
+    bool c1 = false;                      // full check: C1 conditions, injective map, spread bound
+    double objective() const { return std::abs(volumeRatio - 1) + hausdorff; }
+};
+
+// Searches (c, d, e) >= 0 with c + n d + n e = 1 at valence n (3 or more, not 4) on a grid of
+// c and of the share of 1 - c given to the diagonals, then on a finer grid around the best;
+// keeps candidates whose spectral gap meets options.minimumGap (or the paper's gap at n when
+// that is smaller), ranks them by objective() on trapezohedron(n) (its valence-3 vertices
+// follow `valence3`; at n = 3 the candidate itself), and returns the best that passes
+// analyzeValence's C1 checks and the normal spread bound. Throws std::runtime_error if none.
+ShapeCandidate optimizeShapeWeights(Index valence, VertexWeights valence3, const ShapeSearchOptions& options = {});
+
+// The paper's spectral gap at valence n (lambda1 - |lambda3| of the 3-ring two-step matrix).
+double paperSpectralGap(Index valence);
 
 }  // namespace psub

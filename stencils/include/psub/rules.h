@@ -19,13 +19,20 @@ struct VertexWeights {
 // Robust (beyond the paper, never the default): the same, except that an interior vertex of
 // valence 2 with both faces quads gets c, d, e = 0, 1/3, 1/6, where the paper's c = -1/2
 // folds the two faces back to back.
-enum class Rules { Paper, Robust };
+// Shape (beyond the paper, never the default): Robust, and at an interior vertex of valence 3
+// or 5..16 with all faces quads, c, d, e from a table chosen by `psub analyze --optimize-shape`
+// (docs/shape-rules.md): the surface keeps more of Catmull-Clark's shape at low valence while
+// the necessary C1 conditions hold with a spectral gap of at least 0.12 (or the paper's own,
+// if smaller). Valence 4 (regular), valence above 16, mixed vertices and the boundary follow
+// the paper.
+enum class Rules { Paper, Robust, Shape };
 
-// "paper" or "robust".
+// "paper", "robust" or "shape".
 const char* rulesName(Rules rules);
 
 // All incident faces quads: c = (n-3)/n, d = 2/n^2, e = 1/n^2 (n = valence), except
-// Rules::Robust at n = 2: 0, 1/3, 1/6. n >= 2.
+// Rules::Robust and Rules::Shape at n = 2: 0, 1/3, 1/6, and Rules::Shape's table at n = 3
+// and 5..16. n >= 2.
 VertexWeights quadVertexWeights(Index n, Rules rules = Rules::Paper);
 
 // At least one incident triangle: f = 1/(1 + n/2 + m/4), g = f/2, h = f/4 (m = quads).
