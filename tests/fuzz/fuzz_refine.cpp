@@ -1,6 +1,6 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
 // levels (either boundary mode), turned into both table forms and evaluated; the counts must match the closed form
-// and the two table forms must agree.
+// and the two table forms must agree; within the numeric-range policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -32,6 +32,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         for (double p : mesh.positions) scale = std::max(scale, std::abs(p));
         for (std::size_t i = 0; i < a.size(); ++i)
             if (std::isfinite(a[i]) && std::isfinite(b[i]) && std::abs(a[i] - b[i]) > 1e-4 * scale) std::abort();
+        // The numeric-range policy: within the double limit, two steps stay finite in both forms.
+        psub::checkCoordinateRange(mesh, psub::Precision::Double);
+        for (std::size_t i = 0; i < a.size(); ++i)
+            if (!std::isfinite(a[i]) || !std::isfinite(b[i])) std::abort();
     } catch (const psub::InputError&) {
     }
     return 0;
