@@ -24,7 +24,7 @@ void requireFiniteValues(std::span<const T> xyz, const std::string& input, const
 
 }  // namespace
 
-double coordinateLimit(Precision precision) { return precision == Precision::Float ? 1e8 : 1e100; }
+double coordinateLimit(Precision precision) { return precision == Precision::Float ? 1e8 : 1e60; }
 
 const char* precisionName(Precision precision) { return precision == Precision::Float ? "float" : "double"; }
 

@@ -70,7 +70,8 @@ std::string describeVertex(const Source& source, Index v);
 // refuse input beyond a limit per evaluation precision, chosen so that the refined positions
 // and what is derived from them still fit: float (Vulkan, play, render, the demo's timings)
 // 1e8, because normals take fourth powers of coordinates (Newell sums, then their length);
-// double (subdivide on the CPU, stats, compare) 1e100, because compare's volumes take cubes.
+// double (subdivide on the CPU, stats, compare) 1e60, because compare's point-to-triangle
+// distances multiply dot products (fourth powers).
 // The library itself refuses nothing: out-of-range or non-finite control points passed to an
 // evaluator give non-finite refined values and normals, never a crash or an out-of-bounds access.
 enum class Precision { Float, Double };
