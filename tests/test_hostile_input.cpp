@@ -1,5 +1,5 @@
 // Class 4 of the hostile inputs: broken input that was accepted silently. OBJ `v` lines take
-// 3, 4 (w) or 6 (colour) numbers and nothing else, so a continuation that runs a face into a
+// 3, 4 (w), 6 or 7 (colour) numbers and nothing else, so a continuation that runs a face into a
 // `v` line is an error, not a vanished face; glTF byte offsets must be non-negative, a glb
 // must be version 2 and the `scene` must exist.
 #include "hostile_support.h"
@@ -40,14 +40,14 @@ TEST(HostileInputObj, ContinuedFaceKeepsEveryCornerAndLaterLineNumbers) {
     EXPECT_TRUE(contains(messageOf("v 0 0 0\nf 1 \\\n 2 \\\n 3\nv 1 x 0\n"), "t.obj:5: vertex 2")) << "line after continuations";
 }
 
-TEST(HostileInputObj, FourAndSixNumberVertexLinesStayAccepted) {
-    const Mesh mesh = parseObj("v 1 2 3 1.0\nv 4 5 6 0.5 0.25 1\nv 7 8 9\nf 1 2 3\n", "t.obj");
+TEST(HostileInputObj, FourSixAndSevenNumberVertexLinesStayAccepted) {
+    const Mesh mesh = parseObj("v 1 2 3 1.0\nv 4 5 6 0.5 0.25 1\nv 7 8 9 0.1 0.2 0.3 1\nf 1 2 3\n", "t.obj");
     EXPECT_EQ(mesh.positions, (std::vector<double>{1, 2, 3, 4, 5, 6, 7, 8, 9}));
 }
 
 TEST(HostileInputObj, OtherNumberCountsAndJunkAfterNumbersAreRefused) {
     EXPECT_TRUE(contains(messageOf("v 1 2 3 4 5\n"), "t.obj:1: vertex 1: 5 numbers")) << messageOf("v 1 2 3 4 5\n");
-    EXPECT_TRUE(contains(messageOf("v 1 2 3 4 5 6 7\n"), "t.obj:1: vertex 1: unexpected '7' after 6 numbers"));
+    EXPECT_TRUE(contains(messageOf("v 1 2 3 4 5 6 7 8\n"), "t.obj:1: vertex 1: unexpected '8' after 7 numbers"));
     EXPECT_TRUE(contains(messageOf("v 1 2\n"), "t.obj:1: vertex 1: expected 3 numbers, got 2"));
     EXPECT_TRUE(contains(messageOf("v 1 2 3 1 # comment\nv 1 2 3 0.5 0.5 0.5 x\n"), "t.obj:2: vertex 2: unexpected 'x'"));
     EXPECT_TRUE(contains(messageOf("v 1 2 3 4w\n"), "t.obj:1: vertex 1: unexpected '4w'"));

@@ -100,16 +100,16 @@ public:
     }
 
 private:
-    // A `v` statement: x y z, optionally w (x y z w) or a colour (x y z r g b); nothing else.
+    // A `v` statement: x y z, optionally w (x y z w) or a colour (x y z r g b [a]); nothing else.
     void vertex(std::string_view rest, std::uint32_t lineNo) {
         const std::size_t v = mesh_.positions.size() / 3;
         const std::string where = at(name_, lineNo) + "vertex " + std::to_string(v + 1) + ": ";
-        double values[6] = {};
+        double values[7] = {};
         std::size_t count = 0;
         for (std::string_view token = nextToken(rest); !token.empty(); token = nextToken(rest)) {
-            if (count == 6)
+            if (count == 7)
                 throw InputError(where + "unexpected '" + shown(token) +
-                                 "' after 6 numbers (x y z, x y z w or x y z r g b)");
+                                 "' after 7 numbers (x y z, x y z w, x y z r g b or x y z r g b a)");
             const NumberRead read = readNumber(token, values[count]);
             if (read == NumberRead::OutOfRange)
                 throw InputError(where + "number out of range: '" + shown(token) + "'");
@@ -121,7 +121,7 @@ private:
         }
         if (count < 3) throw InputError(where + "expected 3 numbers, got " + std::to_string(count));
         if (count == 5)
-            throw InputError(where + "5 numbers: expected x y z, x y z w or x y z r g b");
+            throw InputError(where + "5 numbers: expected x y z, x y z w, x y z r g b or x y z r g b a");
         for (std::size_t axis = 0; axis < 3; ++axis) {
             if (!std::isfinite(values[axis]))
                 throw InputError(where + "coordinate " + "xyz"[axis] + " is not finite");
