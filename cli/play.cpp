@@ -220,8 +220,7 @@ void Playback::checkFrame(int index) const {
     const double limit = coordinateLimit(Precision::Float);
     const std::string frame = o.input + ": frame " + std::to_string(index);
     for (std::size_t i = 0; i < control.size(); ++i)
-        if (!(std::abs(control[i]) <= limit))
-        {
+        if (!(std::abs(control[i]) <= limit)) {
             char value[32];
             std::snprintf(value, sizeof value, "%g", double(control[i]));
             throw InputError(frame + ": posed control vertex " + std::to_string(i / 3 + 1) + " coordinate " +
