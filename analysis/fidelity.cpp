@@ -89,8 +89,12 @@ public:
             const Vec a = point(positions_, triangles_[3 * t]), b = point(positions_, triangles_[3 * t + 1]),
                       c = point(positions_, triangles_[3 * t + 2]);
             const Vec n = cross(sub(b, a), sub(c, a));
-            area += std::sqrt(dot(n, n)) / 2;
+            area += std::hypot(n[0], n[1], n[2]) / 2;  // hypot: no overflow in the squares
         }
+        // Coordinates beyond the range that squares and areas fit in (compare's input limit
+        // keeps them out) would make the cell size or an index NaN: refuse them here.
+        if (!std::isfinite(area) || !std::isfinite(largest))
+            throw std::invalid_argument("surfaceDistances: coordinates too large (their squares overflow) or not finite");
         const double maxCells = 4.0 * double(count) + double(1 << 20);
         double cell = 2 * std::sqrt(area / double(std::max<std::size_t>(count, 1)));
         cell = std::max({cell, std::cbrt(extent[0] * extent[1] * extent[2] / maxCells), largest / 2048});
@@ -175,7 +179,8 @@ public:
 private:
     int cellIndex(int axis, double x) const {
         const double t = (x - lo_[std::size_t(axis)]) / size_[std::size_t(axis)];
-        return int(std::clamp(std::floor(t), 0.0, double(dims_[axis] - 1)));
+        if (!(t > 0)) return 0;  // also NaN (a non-finite sample point): never an index from it
+        return int(std::min(std::floor(t), double(dims_[axis] - 1)));
     }
     std::size_t cellOf(int x, int y, int z) const {
         return (std::size_t(z) * std::size_t(dims_[1]) + std::size_t(y)) * std::size_t(dims_[0]) + std::size_t(x);
@@ -206,7 +211,7 @@ MeshMeasures measureMesh(const Faces& faces, std::span<const double> positions) 
                   c = point(positions, triangles[t + 2]);
         m.volume += dot(a, cross(b, c)) / 6;
         const Vec n = cross(sub(b, a), sub(c, a));
-        m.area += std::sqrt(dot(n, n)) / 2;
+        m.area += std::hypot(n[0], n[1], n[2]) / 2;  // hypot: no overflow in the squares
     }
     for (Index v : faces.verts)
         for (std::size_t a = 0; a < 3; ++a) {

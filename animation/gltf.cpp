@@ -3,10 +3,17 @@
 // so a bad file gives InputError naming the file and the element, never a crash.
 #include "psub/animation.h"
 
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <climits>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -32,7 +39,12 @@ struct Context {
     }
 };
 
-std::string named(const char* kind, std::size_t index) { return kind + (" " + std::to_string(index)); }
+std::string named(const char* kind, std::size_t index) {
+    std::string out(kind);  // appended, not kind + (...): GCC 12 warns falsely (-Wrestrict) on that
+    out += ' ';
+    out += std::to_string(index);
+    return out;
+}
 
 std::string primitiveName(std::size_t mesh, std::size_t primitive) {
     return named("mesh", mesh) + " primitive " + std::to_string(primitive);
@@ -683,9 +695,13 @@ std::vector<unsigned char> readBytes(const std::string& path) {
     if (std::filesystem::is_directory(path, error)) throw InputError(path + ": is a directory, not a glTF file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(path + ": cannot open the file");
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) throw InputError(path + ": cannot read the file");
-    return bytes;
+    try {
+        std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        if (in.bad()) throw InputError(path + ": cannot read the file");
+        return bytes;
+    } catch (const std::bad_alloc&) {
+        throw InputError(path + ": the file does not fit in memory");
+    }
 }
 
 // tinygltf decodes images by default; the cage needs none.
@@ -694,17 +710,198 @@ bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int
     return true;
 }
 
+// ---------------------------------------------------------------------------------------
+// Checks before tinygltf parses: what it would crash on, hang on or silently accept.
+
+constexpr std::size_t kMaxJsonDepth = 128;  // glTF itself nests about 6 deep; extras may add some
+
+const char* fileKind(mode_t mode) {
+    if (S_ISDIR(mode)) return "a directory";
+    if (S_ISFIFO(mode)) return "a named pipe (FIFO)";
+    if (S_ISCHR(mode)) return "a character device";
+    if (S_ISBLK(mode)) return "a block device";
+    if (S_ISSOCK(mode)) return "a socket";
+    return "not a regular file";
+}
+
+// The deepest nesting of arrays and objects in `json` (strings skipped), stopping past `limit`.
+std::size_t jsonDepth(std::string_view json, std::size_t limit) {
+    std::size_t depth = 0, deepest = 0;
+    bool inString = false;
+    for (std::size_t i = 0; i < json.size() && deepest <= limit; ++i) {
+        const char c = json[i];
+        if (inString) {
+            if (c == '\\') ++i;
+            else if (c == '"') inString = false;
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            deepest = std::max(deepest, ++depth);
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+    return deepest;
+}
+
+// The JSON text of a .gltf file, or of a .glb's first chunk; refuses glb versions other than 2.
+std::string_view jsonText(const std::string& path, const std::vector<unsigned char>& bytes, bool binary) {
+    const char* text = reinterpret_cast<const char*>(bytes.data());
+    if (!binary) return {text, bytes.size()};
+    if (bytes.size() < 20) throw InputError(path + ": glb header: the file has " + std::to_string(bytes.size()) +
+                                            " bytes, fewer than a header and a chunk header");
+    const std::uint32_t version = load<std::uint32_t>(bytes.data() + 4);
+    if (version != 2)
+        throw InputError(path + ": glb header: version " + std::to_string(version) + ", expected 2 (glTF 2.0)");
+    const std::size_t length = std::min<std::size_t>(load<std::uint32_t>(bytes.data() + 12), bytes.size() - 20);
+    return {text + 20, length};
+}
+
+std::string percentDecoded(const std::string& uri) {
+    std::string out;
+    for (std::size_t i = 0; i < uri.size(); ++i) {
+        const auto hex = [&](char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; };
+        if (uri[i] == '%' && i + 2 < uri.size() && hex(uri[i + 1]) && hex(uri[i + 2])) {
+            out += char(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+            i += 2;
+        } else {
+            out += uri[i];
+        }
+    }
+    return out;
+}
+
+// An external file (buffer or image `uri`) must be a regular file: a FIFO would block the read
+// forever, a directory or device has no sensible contents. Buffers must also have byteLength bytes.
+void checkExternalFile(const std::string& path, const std::string& baseDir, const std::string& element,
+                       const nlohmann::json& object) {
+    const auto uri = object.find("uri");
+    if (uri == object.end() || !uri->is_string()) return;
+    const std::string text = uri->get<std::string>();
+    if (text.starts_with("data:")) return;
+    const std::string name = percentDecoded(text);
+    for (const std::string& candidate : {baseDir.empty() ? name : baseDir + "/" + name, name}) {
+        struct stat info {};
+        if (::stat(candidate.c_str(), &info) != 0) continue;
+        if (!S_ISREG(info.st_mode))
+            throw InputError(path + ": " + element + ": uri '" + text + "' (" + candidate + ") is " +
+                             fileKind(info.st_mode) + ", not a regular file");
+        const auto length = object.find("byteLength");
+        if (element.starts_with("buffer") && length != object.end() && length->is_number_unsigned() &&
+            std::uintmax_t(info.st_size) != length->get<std::uintmax_t>())
+            throw InputError(path + ": " + element + ": uri '" + text + "' (" + candidate + ") has " +
+                             std::to_string(info.st_size) + " bytes, byteLength says " +
+                             std::to_string(length->get<std::uintmax_t>()));
+        return;
+    }
+}
+
+void checkByteOffset(const std::string& path, const std::string& element, const nlohmann::json& object) {
+    if (!object.is_object()) return;
+    const auto offset = object.find("byteOffset");
+    if (offset == object.end()) return;
+    if (!offset->is_number_integer() || offset->get<std::int64_t>() < 0)
+        throw InputError(path + ": " + element + ": byteOffset " + offset->dump() +
+                         " is not a non-negative integer");
+}
+
+// Each element of the top-level array `key`, with its name ("accessor 3") for messages.
+template <class Check>
+void forEach(const nlohmann::json& root, const char* key, const char* kind, Check check) {
+    const auto array = root.find(key);
+    if (array == root.end() || !array->is_array()) return;
+    for (std::size_t i = 0; i < array->size(); ++i)
+        if ((*array)[i].is_object()) check(named(kind, i), (*array)[i]);
+}
+
+void precheck(const std::string& path, std::string_view json, const std::string& baseDir) {
+    if (jsonDepth(json, kMaxJsonDepth) > kMaxJsonDepth)
+        throw InputError(path + ": the JSON nests deeper than " + std::to_string(kMaxJsonDepth) +
+                         " arrays and objects");
+    const nlohmann::json root = nlohmann::json::parse(json, nullptr, false);
+    if (!root.is_object()) return;  // tinygltf reports what is wrong with it
+    forEach(root, "accessors", "accessor", [&](const std::string& element, const nlohmann::json& accessor) {
+        checkByteOffset(path, element, accessor);
+        const auto sparse = accessor.find("sparse");
+        if (sparse == accessor.end() || !sparse->is_object()) return;
+        for (const char* part : {"indices", "values"})
+            if (const auto found = sparse->find(part); found != sparse->end())
+                checkByteOffset(path, element + " sparse " + part, *found);
+    });
+    forEach(root, "bufferViews", "buffer view", [&](const std::string& element, const nlohmann::json& view) {
+        checkByteOffset(path, element, view);
+    });
+    forEach(root, "buffers", "buffer", [&](const std::string& element, const nlohmann::json& buffer) {
+        checkExternalFile(path, baseDir, element, buffer);
+    });
+    forEach(root, "images", "image", [&](const std::string& element, const nlohmann::json& image) {
+        checkExternalFile(path, baseDir, element, image);
+    });
+    if (const auto scene = root.find("scene"); scene != root.end()) {
+        const auto scenes = root.find("scenes");
+        const std::size_t count = scenes != root.end() && scenes->is_array() ? scenes->size() : 0;
+        if (!scene->is_number_integer() || scene->get<std::int64_t>() < 0 ||
+            std::size_t(scene->get<std::int64_t>()) >= count)
+            throw InputError(path + ": scene " + scene->dump() + " does not exist (the file has " +
+                             std::to_string(count) + " scenes)");
+    }
+}
+
+// tinygltf's file access, made safe: no shell expansion of names, and only regular files are
+// read (opened without blocking, so a FIFO that appears after the checks cannot hang us).
+bool fileExists(const std::string& name, void*) {
+    struct stat info {};
+    return ::stat(name.c_str(), &info) == 0;
+}
+
+std::string expandNothing(const std::string& name, void*) { return name; }
+
+bool readRegularFile(std::vector<unsigned char>* out, std::string* error, const std::string& name, void*) {
+    const int fd = ::open(name.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        *error += std::strerror(errno);
+        return false;
+    }
+    struct stat info {};
+    bool ok = ::fstat(fd, &info) == 0 && S_ISREG(info.st_mode);
+    if (!ok) *error += std::string("is ") + fileKind(info.st_mode) + ", not a regular file";
+    try {
+        if (ok) out->resize(std::size_t(info.st_size));
+    } catch (const std::bad_alloc&) {
+        *error += "does not fit in memory (" + std::to_string(info.st_size) + " bytes)";
+        ok = false;
+    }
+    for (std::size_t done = 0; ok && done < out->size();) {
+        const ssize_t got = ::read(fd, out->data() + done, out->size() - done);
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0) {
+            *error += got < 0 ? std::strerror(errno) : "the file shrank while being read";
+            ok = false;
+        }
+        done += got > 0 ? std::size_t(got) : 0;
+    }
+    ::close(fd);
+    return ok;
+}
+
+bool writeNothing(std::string* error, const std::string&, const std::vector<unsigned char>&, void*) {
+    *error += "psub never writes glTF files";
+    return false;
+}
+
 tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& warnings) {
     const std::vector<unsigned char> bytes = readBytes(path);
     if (bytes.empty()) throw InputError(path + ": the file is empty");
     if (bytes.size() > UINT_MAX) throw InputError(path + ": the file is larger than 4 GiB");
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(&skipImage, nullptr);
+    loader.SetFsCallbacks({&fileExists, &expandNothing, &readRegularFile, &writeNothing, nullptr});
     tinygltf::Model model;
     std::string error, warning;
     const std::string baseDir = std::filesystem::path(path).parent_path().string();
     const unsigned length = unsigned(bytes.size());
     const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    precheck(path, jsonText(path, bytes, binary), baseDir);
     const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, bytes.data(), length, baseDir)
                            : loader.LoadASCIIFromString(&model, &error, &warning,
                                                         reinterpret_cast<const char*>(bytes.data()), length, baseDir);

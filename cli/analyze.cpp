@@ -6,6 +6,7 @@
 
 #include "psub/analysis.h"
 #include "psub/catmark.h"
+#include "psub/evaluator.h"
 #include "psub/stencils.h"
 
 #include <algorithm>
@@ -49,15 +50,19 @@ Json jsonRecord(const ValenceReport& r) {
 
 const char* yesNo(bool value) { return value ? "yes" : "no"; }
 
-Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules, int samples,
-                       Boundary boundary = Boundary::Paper) {
-    // Refuse what would not fit comfortably: the refined P-S mesh's face count in closed form.
+// Refuses what would not fit comfortably: the refined P-S mesh's face count in closed form.
+void guardCompare(const Mesh& mesh, const Connectivity& connectivity, int levels, Boundary boundary) {
     const bool preprocess = needsPreprocessing(mesh.faces, connectivity, Preprocess::Auto, mesh.source);
     const Counts finest = countsAfterSteps(countMesh(mesh.faces, connectivity), levels + (preprocess ? 1 : 0),
                                            boundary, preprocess);
     if (finest.faces > 20'000'000)
         throw InputError(mesh.source.path + ": " + std::to_string(levels) + " P-S steps would give " +
                          std::to_string(finest.faces) + " faces; psub compare stops at 20 million (use fewer --levels)");
+}
+
+Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules, int samples,
+                       Boundary boundary = Boundary::Paper) {
+    guardCompare(mesh, connectivity, levels, boundary);
     return compareWithCatmark(mesh, connectivity, levels, rules, samples, boundary);
 }
 
@@ -65,6 +70,7 @@ Fidelity compareLoaded(const Mesh& mesh, const Connectivity& connectivity, int l
 int runBoundaryAspect(const AnalyzeOptions& options) {
     CheckedMesh checked;
     const Mesh mesh = loadChecked(options.boundaryModel, checked);
+    checkCoordinateRange(mesh, Precision::Double);
     if (checked.connectivity.boundaryEdgeCount == 0)
         throw InputError(options.boundaryModel + ": the mesh has no boundary edge, so no boundary triangles");
     const bool preprocess = needsPreprocessing(mesh.faces, checked.connectivity, Preprocess::Auto, mesh.source);
@@ -218,11 +224,54 @@ int runAnalyze(const AnalyzeOptions& options) {
     return 0;
 }
 
+// psub compare on a mesh OpenSubdiv cannot refine: the P-S measures alone, with the reason.
+int comparePsOnly(const CompareOptions& options, const Mesh& mesh, const Connectivity& connectivity, Rules rules,
+                  const std::string& problem) {
+    guardCompare(mesh, connectivity, options.levels, options.boundary);
+    RefineOptions refineOptions;
+    refineOptions.levels = options.levels;
+    refineOptions.rules = rules;
+    refineOptions.boundary = options.boundary;
+    const Refinement r = refine(mesh, connectivity, refineOptions);
+    CpuEvaluator<double> evaluator(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+    std::vector<double> ps(3 * std::size_t(evaluator.refinedCount()));
+    evaluator.evaluate(mesh.positions, ps);
+    requireFinite(ps, options.input, "refined");
+    Faces psFaces;
+    psFaces.vertexCount = r.surface.vertexCount;
+    psFaces.offsets = r.surface.faceOffsets;
+    psFaces.verts = r.surface.faceVerts;
+    const MeshMeasures input = measureMesh(mesh.faces, mesh.positions), refined = measureMesh(psFaces, ps);
+    std::fflush(stdout);
+    std::fprintf(stderr, "psub: warning: %s; Catmull-Clark is unavailable, so compare measures P-S only\n",
+                 problem.c_str());
+    if (options.json) {
+        std::printf("{\"ps_steps\": %d, \"ps_faces\": %u, \"cc\": null, \"input_volume\": %s, \"ps_volume\": %s, "
+                    "\"input_area\": %s, \"ps_area\": %s}\n",
+                    options.levels, psFaces.faceCount(), jsonNumber(input.volume).c_str(),
+                    jsonNumber(refined.volume).c_str(), jsonNumber(input.area).c_str(), jsonNumber(refined.area).c_str());
+        return 0;
+    }
+    std::printf("%s: P-S %d steps (%s rules); Catmull-Clark unavailable for this mesh\n\n", options.input.c_str(),
+                options.levels, rulesName(rules));
+    std::printf("%-14s %14s %14s\n", "", "input", "P-S");
+    std::printf("%-14s %14u %14u\n", "faces", mesh.faces.faceCount(), psFaces.faceCount());
+    std::printf("%-14s %14.6g %14.6g\n", "volume", input.volume, refined.volume);
+    std::printf("%-14s %14.6g %14.6g\n", "area", input.area, refined.area);
+    std::printf("%-14s %14.6g %14.6g\n", "box diagonal", input.diagonal(), refined.diagonal());
+    return 0;
+}
+
 int runCompare(const CompareOptions& options) {
     if (options.levels % 2 != 0) throw InputError("--levels must be even: P-S after 2k steps against Catmull-Clark after k");
     CheckedMesh checked;
     const Mesh mesh = loadChecked(options.input, checked);
+    checkCoordinateRange(mesh, Precision::Double);
     const Rules rules = options.rules == "robust" ? Rules::Robust : options.rules == "shape" ? Rules::Shape : Rules::Paper;
+    if (const auto problem = catmarkProblem(mesh)) {
+        if (!options.plot.empty()) throw InputError(*problem + "; Catmull-Clark is unavailable, so there is no --plot");
+        return comparePsOnly(options, mesh, checked.connectivity, rules, *problem);
+    }
     const Fidelity f = compareLoaded(mesh, checked.connectivity, options.levels, rules, options.samples, options.boundary);
     const double diagonal = f.cc.diagonal();
     const auto maxOf = [](const std::vector<double>& v) {
@@ -345,7 +394,11 @@ void printVerdicts(const Mesh& mesh, const Connectivity& connectivity, int level
         const Connectivity* links;
     };
     const Subject subjects[2] = {{name, &mesh, &connectivity}, {"cube", &cube, &cubeConnectivity}};
+    const bool ccUnavailable = catmarkProblem(mesh).has_value();
+    if (ccUnavailable)
+        verdict("keeps the shape, 2 P-S steps = 1 CC step: " + name, "Catmull-Clark unavailable for this mesh", "-");
     for (const auto& [label, model, links] : subjects) {
+        if (ccUnavailable && model == &mesh) continue;
         const Fidelity f = compareLoaded(*model, *links, steps, Rules::Paper, 0);
         const double ratio = f.ps.volume / f.cc.volume;
         std::snprintf(text, sizeof text, "volume x%.3f, area x%.3f (P-S %d steps / CC %d)", ratio, f.ps.area / f.cc.area,
@@ -363,6 +416,7 @@ void printVerdicts(const Mesh& mesh, const Connectivity& connectivity, int level
         verdict("cube, --rules shape (beyond the paper)", text, ratio >= 0.25 && c1 ? "closer, C1 kept" : "no");
     }
     for (const auto& [label, model, links] : {subjects[1], subjects[0]}) {
+        if (ccUnavailable && model == &mesh) continue;
         const bool preprocess = needsPreprocessing(model->faces, *links, Preprocess::Auto);
         const Counts input = countMesh(model->faces, *links);
         // The paired method is a topological step like the others, so it counts as one.

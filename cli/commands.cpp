@@ -35,12 +35,18 @@ double msSince(Clock::time_point start) {
 struct Loaded {
     Mesh mesh;
     CheckedMesh checked;
+    std::optional<std::string> ccProblem;  // why OpenSubdiv cannot refine it (then P-S only)
 };
 
 Loaded load(const std::string& path) {
     Loaded loaded;
     loaded.mesh = loadChecked(path, loaded.checked);
+    loaded.ccProblem = catmarkProblem(loaded.mesh);
     return loaded;
+}
+
+void printCatmarkUnavailable(const Loaded& loaded) {
+    std::printf("\nCatmull-Clark: unavailable for this mesh (%s)\n", loaded.ccProblem->c_str());
 }
 
 std::uint64_t physicalMemory() {
@@ -182,6 +188,7 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const std::string what = "P-S, " + std::to_string(o.levels) + (o.levels == 1 ? " step, " : " steps, ") +
                              preprocessName(preprocess) + (o.rules != Rules::Paper ? std::string(", ") + rulesName(o.rules) + " rules" : "") +
                              (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
+    requireFinite(positions, o.input, "refined");
     writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
@@ -189,6 +196,7 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
 }
 
 int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
+    if (loaded.ccProblem) throw InputError(*loaded.ccProblem);
     // Catmull-Clark quadruples the faces: estimate it as two P-S-sized steps per level.
     guardMemory(loaded.mesh, countMesh(loaded.mesh.faces, loaded.checked.connectivity), o.levels, 2, 0,
                 o.maxMemory);
@@ -197,6 +205,7 @@ int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
         refineCatmark(loaded.mesh.faces, loaded.mesh.positions, o.levels);
     const CatmarkLevel& finest = levels.back();
     const std::string what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + " levels";
+    requireFinite(finest.positions, o.input, "refined");
     writeOutput(o.output, formatObj(finest.faces, finest.positions, header(o.input, what)));
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.faces.vertexCount, finest.faces.faceCount(), what.c_str(), msSince(start));
@@ -231,6 +240,7 @@ void printStats(const Loaded& loaded, const Hierarchy& hierarchy, const std::vec
         printRow(label.c_str(), countMesh(level.faces, level.connectivity),
                  classifyVertices(level.connectivity), levelMs[k]);
     }
+    if (loaded.ccProblem) return printCatmarkUnavailable(loaded);
     int ccLevels = 0;
     std::uint64_t faces = 0;  // Catmull-Clark level 1 has one quad per face corner
     for (Index f = 0; f < loaded.mesh.faces.faceCount(); ++f) faces += loaded.mesh.faces.faceSize(f);
@@ -284,6 +294,7 @@ Shape measureShape(const Faces& faces, std::span<const double> p) {
 // For each Catmull-Clark level with a P-S level of the same face count: volume and size.
 void printShapes(const Loaded& loaded, const Hierarchy& hierarchy,
                  const std::vector<std::vector<double>>& positions) {
+    if (loaded.ccProblem) return;  // printStats said so
     int ccLevels = 0;
     while (hierarchy.levels.size() > std::size_t(2 * ccLevels + (hierarchy.preprocessed ? 2 : 1))) ++ccLevels;
     const std::vector<CatmarkLevel> cc = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, ccLevels);
@@ -391,7 +402,14 @@ void writeDemoMeshes(const DemoOptions& options, const std::string& model, const
     const std::string stem = std::filesystem::path(model).stem().string();
     const int ccLevels = std::max(1, options.levels / 2);
     const std::string psPath = options.outputDir + "/" + stem + "_ps" + std::to_string(options.levels) + ".obj";
+    requireFinite(positions, model, "refined");
+    if (loaded.ccProblem) {
+        writeOutput(psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo")));
+        std::printf("\nWrote %s (Catmull-Clark is unavailable for this mesh)\n", psPath.c_str());
+        return;
+    }
     const std::vector<CatmarkLevel> cc = refineCatmark(loaded.mesh.faces, loaded.mesh.positions, ccLevels);
+    requireFinite(cc.back().positions, model, "Catmull-Clark refined");
     const std::string ccPath = options.outputDir + "/" + stem + "_cc" + std::to_string(ccLevels) + ".obj";
     // Both or neither: a failure on the second leaves the first unwritten too.
     writeOutputs({{psPath, formatObj(hierarchy.finest().faces, positions, header(model, "P-S demo"))},
@@ -422,12 +440,15 @@ std::string dataDir() {
 
 int runSubdivide(const SubdivideOptions& options) {
     const Loaded loaded = load(options.input);
+    const bool onVulkan = options.scheme == Scheme::PS && options.backend != Backend::Cpu;
+    checkCoordinateRange(loaded.mesh, onVulkan ? Precision::Float : Precision::Double);
     return options.scheme == Scheme::PS ? subdividePS(options, loaded) : subdivideCC(options, loaded);
 }
 
 int runStats(const StatsOptions& options) {
     const auto loadStart = Clock::now();
     const Loaded loaded = load(options.input);
+    checkCoordinateRange(loaded.mesh, Precision::Double);
     const double loadMs = msSince(loadStart);
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity,
@@ -451,6 +472,7 @@ int runDemo(const DemoOptions& options) {
     std::printf("PSub demo: the P-S subdivision scheme (Liu, Yang, Guan) on %s\n\n", model.c_str());
     const auto start = Clock::now();
     const Loaded loaded = load(model);
+    checkCoordinateRange(loaded.mesh, Precision::Float);  // it also times the float evaluators
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, Preprocess::Auto);
     std::printf("Loaded and checked in %.1f ms. %s\n\n", msSince(start),

@@ -95,6 +95,7 @@ Animated loadAnimated(const PlayOptions& o) {
     }
     if (a.procedural) a.name = std::string(proceduralName(*a.procedural)) + " (procedural)";
     a.checked = checkMesh(a.mesh);
+    checkCoordinateRange(a.mesh, Precision::Float);
     warnings.insert(warnings.end(), a.checked.warnings.begin(), a.checked.warnings.end());
     printWarnings(warnings);
     a.bounds = restBounds(a.rest);
@@ -194,7 +195,25 @@ struct Playback {
     // recorded, written or verified.
     void frame(int index, Timings& t, bool record = true);
     void draw(int index, Timings& t);
+    void checkFrame(int index) const;
 };
+
+// The numeric-range policy per frame (outside the timed part): the posed control points within
+// the float limit, and the refined positions and normals (when on the host) finite.
+void Playback::checkFrame(int index) const {
+    const double limit = coordinateLimit(Precision::Float);
+    const std::string frame = o.input + ": frame " + std::to_string(index);
+    for (std::size_t i = 0; i < control.size(); ++i)
+        if (!(std::abs(control[i]) <= limit)) {
+            char value[32];
+            std::snprintf(value, sizeof value, "%g", double(control[i]));
+            throw InputError(frame + ": posed control vertex " + std::to_string(i / 3 + 1) + " coordinate " +
+                             "xyz"[i % 3] + " = " + value + " is outside the float range psub play accepts (+-1e8)");
+        }
+    if (!cpu && !needHostResults()) return;
+    requireFinite(refined, frame, "refined");
+    requireFinite(normals, frame, "refined normal of");
+}
 
 void Playback::frame(int index, Timings& t, bool record) {
     const Clock::time_point start = Clock::now();
@@ -232,6 +251,7 @@ void Playback::frame(int index, Timings& t, bool record) {
 #endif
     const Clock::time_point end = Clock::now();
     if (!record) return;
+    checkFrame(index);
     for (int s = 0; s < kStageCount; ++s) t.stages[std::size_t(s)].push_back(stage[s]);
     t.frames.push_back(msBetween(start, end));
     if (rendering()) draw(index, t);

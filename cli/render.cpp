@@ -74,6 +74,8 @@ Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, c
     d.what = "P-S, " + std::to_string(levels) + (levels == 1 ? " step" : " steps");
     const std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     evaluate(context, backend, r.perLevel, control, d);
+    requireFinite(d.positions, mesh.source.path, "refined");
+    requireFinite(d.normals, mesh.source.path, "refined normal of");
     return d;
 }
 
@@ -88,6 +90,8 @@ Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, i
     identity.controlCount = d.surface.vertexCount;
     const std::vector<float> positions(finest.positions.begin(), finest.positions.end());
     evaluate(context, backend, identity, positions, d);
+    requireFinite(d.positions, mesh.source.path, "refined");
+    requireFinite(d.normals, mesh.source.path, "refined normal of");
     return d;
 }
 
@@ -155,6 +159,7 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
 int runRender(const RenderCommandOptions& o) {
     CheckedMesh checked;
     const Mesh mesh = loadChecked(o.input, checked);
+    checkCoordinateRange(mesh, Precision::Float);
     guardFaces(mesh, checked.connectivity, o);
     try {
         VulkanContext context;

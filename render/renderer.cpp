@@ -141,7 +141,13 @@ Image2D createImage(const VulkanContext::Impl& c, VkFormat format, VkImageUsageF
         allocate.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
         allocate.allocationSize = requirements.size;
         allocate.memoryTypeIndex = deviceMemoryType(c, requirements.memoryTypeBits);
-        VK_CHECK(vkAllocateMemory(c.device, &allocate, nullptr, &made.memory));
+        const VkResult allocated = vkAllocateMemory(c.device, &allocate, nullptr, &made.memory);
+        if (allocated == VK_ERROR_OUT_OF_DEVICE_MEMORY || allocated == VK_ERROR_OUT_OF_HOST_MEMORY)
+            throw VulkanError("a " + std::to_string(width) + "x" + std::to_string(height) + " image with " +
+                              std::to_string(int(samples)) + " sample(s) per pixel needs " +
+                              std::to_string(requirements.size) + " bytes of device memory, more than the device "
+                              "could allocate (" + vulkan::resultName(allocated) + "); use a smaller --size or --msaa 1");
+        VK_CHECK(allocated);
         VK_CHECK(vkBindImageMemory(c.device, made.image, made.memory, 0));
         VkImageViewCreateInfo viewInfo{};
         viewInfo.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;

@@ -11,16 +11,17 @@ scripts/install-packages.sh clang libclang-rt-14-dev cmake ninja-build libosd-de
 
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DPSUB_FUZZ=ON -DPSUB_BUILD_TESTS=OFF -DPSUB_BUILD_CLI=OFF -DPSUB_BUILD_VULKAN=OFF >/dev/null
-cmake --build build-fuzz -j "$(nproc)" --target fuzz_obj fuzz_refine fuzz_gltf
+cmake --build build-fuzz -j "$(nproc)" --target fuzz_obj fuzz_refine fuzz_gltf fuzz_compare
 
 mkdir -p build-fuzz/artifacts
-for target in fuzz_obj fuzz_refine fuzz_gltf; do
+for target in fuzz_obj fuzz_refine fuzz_gltf fuzz_compare; do
   corpus=build-fuzz/corpus/$target
   mkdir -p "$corpus"
-  seeds=(data tests/data/bad tests/data/osd-shapes tests/fuzz/regressions)
-  [ "$target" = fuzz_gltf ] && seeds=(tests/fuzz/gltf-seeds)
+  seeds=(data tests/data/bad tests/data/osd-shapes tests/fuzz/regressions tests/fuzz/obj-seeds)
+  dict=tests/fuzz/obj.dict
+  [ "$target" = fuzz_gltf ] && seeds=(tests/fuzz/gltf-seeds) && dict=tests/fuzz/gltf.dict
   echo "fuzz: $target for ${seconds}s"
-  build-fuzz/tests/fuzz/$target -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  build-fuzz/tests/fuzz/$target -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -dict="$dict" \
     -max_len=16384 -print_final_stats=1 -artifact_prefix=build-fuzz/artifacts/$target- \
     "$corpus" "${seeds[@]}" 2>&1 | tail -n 12
 done

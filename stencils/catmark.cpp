@@ -1,6 +1,7 @@
 // Catmull-Clark through OpenSubdiv's Far API, for side-by-side comparison with P-S.
 #include "psub/catmark.h"
 
+#include <opensubdiv/far/error.h>
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/stencilTable.h>
 #include <opensubdiv/far/stencilTableFactory.h>
@@ -33,7 +34,25 @@ struct Point3 {
     }
 };
 
+// OpenSubdiv prints its errors and warnings on stdout unless given callbacks: keep the last
+// error of this thread for the exception instead.
+thread_local std::string lastOsdError;
+
+void keepError(Far::ErrorType, const char* message) { lastOsdError = message ? message : ""; }
+void dropWarning(const char*) {}
+
+// Faces or vertices with this many corners or incident faces are beyond OpenSubdiv's local
+// indices (Far::VALENCE_LIMIT; a boundary vertex has one more edge than faces).
+constexpr std::size_t kOsdLimit = std::size_t(Far::VALENCE_LIMIT) - 1;
+
 std::unique_ptr<Far::TopologyRefiner> makeRefiner(const Faces& faces) {
+    static const bool callbacksSet = [] {  // once: setting them is not thread-safe
+        Far::SetErrorCallback(&keepError);
+        Far::SetWarningCallback(&dropWarning);
+        return true;
+    }();
+    (void)callbacksSet;
+    lastOsdError.clear();
     std::vector<int> sizes(faces.faceCount());
     for (Index f = 0; f < faces.faceCount(); ++f) sizes[f] = int(faces.faceSize(f));
     Far::TopologyDescriptor descriptor;
@@ -46,7 +65,9 @@ std::unique_ptr<Far::TopologyRefiner> makeRefiner(const Faces& faces) {
     using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
     std::unique_ptr<Far::TopologyRefiner> refiner(
         Factory::Create(descriptor, Factory::Options(Sdc::SCHEME_CATMARK, options)));
-    if (!refiner) throw InputError("OpenSubdiv could not build a Catmull-Clark refiner for this mesh");
+    if (!refiner)
+        throw InputError("OpenSubdiv could not build a Catmull-Clark refiner for this mesh" +
+                         (lastOsdError.empty() ? std::string() : ": " + lastOsdError));
     return refiner;
 }
 
@@ -69,6 +90,19 @@ CatmarkLevel readLevel(const Far::TopologyLevel& level) {
 }
 
 }  // namespace
+
+std::optional<std::string> catmarkProblem(const Mesh& mesh) {
+    const Faces& faces = mesh.faces;
+    const std::string limit = "beyond OpenSubdiv's limit of " + std::to_string(kOsdLimit);
+    for (Index f = 0; f < faces.faceCount(); ++f)
+        if (faces.faceSize(f) > kOsdLimit)
+            return describeFace(mesh.source, f) + ": " + std::to_string(faces.faceSize(f)) + " corners, " + limit;
+    std::vector<std::size_t> incident(faces.vertexCount, 0);
+    for (Index v : faces.verts)
+        if (v < faces.vertexCount && ++incident[v] == kOsdLimit)
+            return describeVertex(mesh.source, v) + ": in " + std::to_string(kOsdLimit) + " or more faces, " + limit;
+    return std::nullopt;
+}
 
 std::vector<CatmarkLevel> refineCatmark(const Faces& faces, std::span<const double> positions,
                                         int levels, bool withPositions) {

@@ -5,7 +5,9 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <new>
 #include <set>
 #include <string>
 
@@ -38,6 +40,23 @@ std::string shown(std::string_view token) {
     std::string out;
     for (char c : token.substr(0, 40)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
     return token.size() > 40 ? out + "..." : out;
+}
+
+enum class NumberRead { Ok, NotANumber, OutOfRange };
+
+// A decimal number as OBJ writes it ("+1" too). Magnitudes beyond double's range are
+// OutOfRange; a magnitude below the smallest denormal (1e-400) underflows to a signed zero,
+// denormals are kept: both are what the nearest double to the written number is.
+NumberRead readNumber(std::string_view token, double& value) {
+    if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
+    const char* end = token.data() + token.size();
+    const auto [stop, ec] = std::from_chars(token.data(), end, value);
+    if (token.empty() || stop != end) return NumberRead::NotANumber;
+    if (ec == std::errc()) return NumberRead::Ok;
+    if (ec != std::errc::result_out_of_range) return NumberRead::NotANumber;
+    const std::string copy(token);  // strtod tells overflow (HUGE_VAL) from underflow
+    value = std::strtod(copy.c_str(), nullptr);
+    return std::isinf(value) ? NumberRead::OutOfRange : NumberRead::Ok;
 }
 
 std::string at(const std::string& name, std::uint32_t line) {
@@ -81,21 +100,32 @@ public:
     }
 
 private:
+    // A `v` statement: x y z, optionally w (x y z w) or a colour (x y z r g b [a]); nothing else.
     void vertex(std::string_view rest, std::uint32_t lineNo) {
         const std::size_t v = mesh_.positions.size() / 3;
-        for (int axis = 0; axis < 3; ++axis) {
-            std::string_view token = nextToken(rest);
-            if (token.size() > 1 && token[0] == '+' && token[1] != '-') token.remove_prefix(1);
-            double value = 0;
-            auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
-            if (token.empty() || ec != std::errc() || end != token.data() + token.size())
-                throw InputError(at(name_, lineNo) + "vertex " + std::to_string(v + 1) +
-                                 ": expected 3 numbers, got '" + shown(token) + "'");
-            if (!std::isfinite(value))
-                throw InputError(at(name_, lineNo) + "vertex " + std::to_string(v + 1) +
-                                 ": coordinate " + "xyz"[axis] + " is not finite ('" +
-                                 shown(token) + "')");
-            mesh_.positions.push_back(value);
+        const std::string where = at(name_, lineNo) + "vertex " + std::to_string(v + 1) + ": ";
+        double values[7] = {};
+        std::size_t count = 0;
+        for (std::string_view token = nextToken(rest); !token.empty(); token = nextToken(rest)) {
+            if (count == 7)
+                throw InputError(where + "unexpected '" + shown(token) +
+                                 "' after 7 numbers (x y z, x y z w, x y z r g b or x y z r g b a)");
+            const NumberRead read = readNumber(token, values[count]);
+            if (read == NumberRead::OutOfRange)
+                throw InputError(where + "number out of range: '" + shown(token) + "'");
+            if (read == NumberRead::NotANumber)
+                throw InputError(where + (count < 3 ? "expected 3 numbers, got '"
+                                                    : "unexpected '") + shown(token) +
+                                 (count < 3 ? "'" : "' after the coordinates"));
+            ++count;
+        }
+        if (count < 3) throw InputError(where + "expected 3 numbers, got " + std::to_string(count));
+        if (count == 5)
+            throw InputError(where + "5 numbers: expected x y z, x y z w, x y z r g b or x y z r g b a");
+        for (std::size_t axis = 0; axis < 3; ++axis) {
+            if (!std::isfinite(values[axis]))
+                throw InputError(where + "coordinate " + "xyz"[axis] + " is not finite");
+            mesh_.positions.push_back(values[axis]);
         }
         mesh_.source.vertexLine.push_back(lineNo);
     }
@@ -185,7 +215,13 @@ Mesh readObj(const std::string& path, std::vector<std::string>* warnings) {
     std::string text;
     char buffer[1 << 16];
     std::size_t got = 0;
-    while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) text.append(buffer, got);
+    try {
+        while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) text.append(buffer, got);
+    } catch (const std::bad_alloc&) {
+        std::fclose(file);
+        throw InputError(path + ": the file does not fit in memory (" + std::to_string(text.size()) +
+                         " bytes read)");
+    }
     const bool failed = std::ferror(file);
     const int error = errno;
     std::fclose(file);

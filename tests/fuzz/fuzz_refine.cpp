@@ -1,6 +1,7 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
 // levels (either boundary mode), turned into all three table forms and evaluated; the counts must match the closed
-// form and the table forms must agree (the tiled one once put back in canonical order).
+// form and the table forms must agree (the tiled one once put back in canonical order); within the numeric-range
+// policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -41,6 +42,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             if ((std::isfinite(a[i]) && std::isfinite(b[i]) && std::abs(a[i] - b[i]) > 1e-4 * scale) ||
                 (std::isfinite(a[i]) && std::isfinite(c[i]) && std::abs(a[i] - c[i]) > 1e-9 * scale))
                 std::abort();
+        // The numeric-range policy: within the double limit, two steps stay finite in every form.
+        psub::checkCoordinateRange(mesh, psub::Precision::Double);
+        for (std::size_t i = 0; i < a.size(); ++i)
+            if (!std::isfinite(a[i]) || !std::isfinite(b[i]) || !std::isfinite(c[i])) std::abort();
     } catch (const psub::InputError&) {
     }
     return 0;

@@ -54,6 +54,12 @@ void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<
 // psub/tiled.h; toCanonical rearranges it) and its normals follow the same order.
 enum class TableForm { PerLevel, Factorized, Tiled };
 
+// Control points are not checked (a frame must not pay for it). NaN or infinite control points,
+// or finite ones so large that a weighted sum overflows T (for float: beyond about 1e37 for
+// positions; normals take fourth powers, so beyond about 1e9), give NaN or infinite refined
+// values and NaN, infinite or zero normals where they reach; never a crash, a hang or an access
+// out of bounds. The psub commands refuse such input before it gets here (README, bad input).
+//
 // The per-frame evaluator: control points in, refined vertices out, on up to `threads`
 // threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the intermediate levels are allocated once, here; a frame
 // allocates nothing. Keeps references to the tables: they must outlive the evaluator.

@@ -7,7 +7,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace psub {
@@ -18,8 +20,14 @@ struct CatmarkLevel {
     Counts counts;
 };
 
+// Why OpenSubdiv cannot refine `mesh`, naming the file, line and element ("FILE:LINE: face 7:
+// 100000 corners, beyond OpenSubdiv's limit of 65534"), or nullopt. Commands that only compare
+// with Catmull-Clark then go on without it.
+std::optional<std::string> catmarkProblem(const Mesh& mesh);
+
 // Uniform Catmull-Clark levels 0..levels of a validated mesh. With `withPositions` false
-// only topology is refined (for counts).
+// only topology is refined (for counts). When OpenSubdiv refuses the mesh, InputError carries
+// its reason (captured from Far's error callback; nothing is printed).
 std::vector<CatmarkLevel> refineCatmark(const Faces& faces, std::span<const double> positions,
                                         int levels, bool withPositions = true);
 

@@ -62,6 +62,32 @@ std::string describeFace(const Source& source, Index f);
 std::string describeVertex(const Source& source, Index v);
 
 // ---------------------------------------------------------------------------------------
+// Numeric range
+
+// Every P-S rule is an affine combination of control points whose weights sum to 1 and are
+// non-negative, except the paper's valence-2 vertex rule (centre -1/2; |weights| sum to 2), so
+// refined positions stay within a small multiple of the largest input |coordinate|. Commands
+// refuse input beyond a limit per evaluation precision, chosen so that the refined positions
+// and what is derived from them still fit: float (Vulkan, play, render, the demo's timings)
+// 1e8, because normals take fourth powers of coordinates (Newell sums, then their length);
+// double (subdivide on the CPU, stats, compare) 1e60, because compare's point-to-triangle
+// distances multiply dot products (fourth powers).
+// The library itself refuses nothing: out-of-range or non-finite control points passed to an
+// evaluator give non-finite refined values and normals, never a crash or an out-of-bounds access.
+enum class Precision { Float, Double };
+double coordinateLimit(Precision precision);
+const char* precisionName(Precision precision);
+
+// Throws InputError "FILE:LINE: vertex N: coordinate y = 1e+39 is outside +-1e+08, ..." for
+// the first coordinate whose magnitude exceeds coordinateLimit(precision) (or is NaN).
+void checkCoordinateRange(const Mesh& mesh, Precision precision);
+
+// Output boundary: throws InputError "INPUT: WHAT vertex N is not finite ..." for the first
+// non-finite value of `xyz` (3 per vertex), so that no command writes one.
+void requireFinite(std::span<const double> xyz, const std::string& input, const std::string& what);
+void requireFinite(std::span<const float> xyz, const std::string& input, const std::string& what);
+
+// ---------------------------------------------------------------------------------------
 // OBJ I/O
 
 // Reads `v` and `f` statements (face entries i, i/t, i/t/n, i//n, negative indices),

@@ -112,6 +112,9 @@ struct HostFrameTimes {
     double uploadMs = 0, waitMs = 0, readbackMs = 0;
 };
 
+// Out-of-range or non-finite control points: as for CpuEvaluator (psub/evaluator.h), the
+// results are NaN, infinite or zero where such points reach; never a device fault or a read
+// or write outside the buffers (the shaders index by the tables only, never by values).
 class VulkanEvaluator {
 public:
     // Uploads the tables (they need not outlive the evaluator). `factorized` may be empty when

@@ -1,0 +1,49 @@
+// The numeric-range policy: which input coordinates each evaluation precision accepts, and
+// the check that no refined value leaving a command is non-finite.
+#include "psub/topology.h"
+
+#include <charconv>
+#include <cmath>
+
+namespace psub {
+namespace {
+
+std::string shortNumber(double value) {
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, value, std::chars_format::general, 6).ptr;
+    return std::string(text, end);
+}
+
+template <class T>
+void requireFiniteValues(std::span<const T> xyz, const std::string& input, const std::string& what) {
+    for (std::size_t i = 0; i < xyz.size(); ++i)
+        if (!std::isfinite(xyz[i]))
+            throw InputError(input + ": " + what + " vertex " + std::to_string(i / 3 + 1) +
+                             " is not finite (the values overflowed); nothing was written");
+}
+
+}  // namespace
+
+double coordinateLimit(Precision precision) { return precision == Precision::Float ? 1e8 : 1e60; }
+
+const char* precisionName(Precision precision) { return precision == Precision::Float ? "float" : "double"; }
+
+void checkCoordinateRange(const Mesh& mesh, Precision precision) {
+    const double limit = coordinateLimit(precision);
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i)
+        if (!(std::abs(mesh.positions[i]) <= limit))
+            throw InputError(describeVertex(mesh.source, Index(i / 3)) + ": coordinate " + "xyz"[i % 3] + " = " +
+                             shortNumber(mesh.positions[i]) + " is outside +-" + shortNumber(limit) +
+                             ", the range this command's " + precisionName(precision) +
+                             " evaluation refines without overflow");
+}
+
+void requireFinite(std::span<const double> xyz, const std::string& input, const std::string& what) {
+    requireFiniteValues(xyz, input, what);
+}
+
+void requireFinite(std::span<const float> xyz, const std::string& input, const std::string& what) {
+    requireFiniteValues(xyz, input, what);
+}
+
+}  // namespace psub
