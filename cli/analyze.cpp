@@ -246,10 +246,12 @@ int comparePsOnly(const CompareOptions& options, const Mesh& mesh, const Connect
     std::fprintf(stderr, "psub: warning: %s; Catmull-Clark is unavailable, so compare measures P-S only\n",
                  problem.c_str());
     if (options.json) {
-        std::printf("{\"ps_steps\": %d, \"ps_faces\": %u, \"cc\": null, \"input_volume\": %s, \"ps_volume\": %s, "
-                    "\"input_area\": %s, \"ps_area\": %s}\n",
-                    options.levels, psFaces.faceCount(), jsonNumber(input.volume).c_str(),
-                    jsonNumber(refined.volume).c_str(), jsonNumber(input.area).c_str(), jsonNumber(refined.area).c_str());
+        const Json json = {{"input", options.input}, {"rules", rulesName(rules)},
+                           {"boundary", boundaryName(options.boundary)}, {"ps_steps", options.levels},
+                           {"ps_faces", psFaces.faceCount()}, {"cc", nullptr}, {"cc_unavailable", problem},
+                           {"input_volume", input.volume}, {"ps_volume", refined.volume},
+                           {"input_area", input.area}, {"ps_area", refined.area}};
+        std::printf("%s\n", jsonText(json).c_str());
         return 0;
     }
     std::printf("%s: P-S %d steps (%s rules); Catmull-Clark unavailable for this mesh\n\n", options.input.c_str(),
