@@ -63,10 +63,10 @@ core)
              PSUB_GLSLANG_VALIDATOR glm_DIR; do
     if grep -q "^$key:" "$work/core-build/CMakeCache.txt"; then fail "the core-only configure looked for $key"; fi
   done
-  cmake --build "$work/core-build" -j2 --target psub_topology psub_stencils psub_compute >/dev/null
+  cmake --build "$work/core-build" -j2 --target psub_output psub_topology psub_stencils psub_compute >/dev/null
   cmake --install "$work/core-build" --prefix "$work/core-prefix" >/dev/null
   installed=$(cd "$work/core-prefix/lib/cmake/PSub" && ls PSub-*-targets.cmake | sed 's/PSub-\(.*\)-targets.cmake/\1/' | sort | tr '\n' ' ')
-  [ "$installed" = "compute stencils tables topology " ] || fail "core-only install has components: $installed"
+  [ "$installed" = "compute output stencils tables topology " ] || fail "core-only install has components: $installed"
   build_consumer cpu "$work/core-cpu-consumer" "$work/core-prefix"
   "$work/core-cpu-consumer/cpu_consumer" "$work/core-prefix/share/psub/cube.obj" 4 3
   # Asking that install for Vulkan is refused, naming the component.
