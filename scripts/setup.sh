@@ -10,9 +10,11 @@ case "$mode" in demo | test | sanitize) ;; *) echo "usage: scripts/setup.sh demo
 
 packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev libeigen3-dev libpng-dev
           libtinygltf-dev libstb-dev nlohmann-json3-dev libglm-dev
-          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools nodejs npm
+          libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools nodejs
           libglfw3-dev xvfb xauth)
 scripts/install-packages.sh "${packages[@]}"
+# Debian's nodejs comes without npm (the npm package); some nodejs builds bundle it.
+command -v npm >/dev/null || scripts/install-packages.sh npm
 # The Khronos glTF Validator (npm, version pinned in tests/gltf_validator/package-lock.json),
 # which the tests run on every bundled and written glTF file.
 if [ "$mode" != demo ] && [ ! -d tests/gltf_validator/node_modules/gltf-validator ]; then
