@@ -45,7 +45,7 @@ template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   T* scratch, T* lattice = nullptr);
 
-// The tiled form's output (drawing order) rearranged into the canonical order of SPEC.md
+// The tiled form's output (drawing order) rearranged into the canonical order of docs/scheme.md
 // (what `psub subdivide` writes): canonical[table.canonical[p]] = drawing[p].
 template <class T>
 void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<T> canonical, std::uint32_t width);
