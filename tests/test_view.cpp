@@ -271,7 +271,10 @@ TEST_F(View, ThreeHundredFramesOfAGltfClipKeepResidentMemory) {
     ASSERT_EQ(lines.size(), 300u);
     const double at100 = field(lines[99], "rss_kib"), at300 = field(lines[299], "rss_kib");
     EXPECT_GT(at100, 0);
-    EXPECT_LE(std::abs(at300 - at100), 2048) << "resident KiB at frame 100: " << at100 << ", at 300: " << at300;
+    // Under AddressSanitizer freed blocks wait in its quarantine (256 MiB), so resident memory
+    // measures that, not the frame loop: the bound is checked in the plain build only.
+    if (!test::kSanitized)
+        EXPECT_LE(std::abs(at300 - at100), 2048) << "resident KiB at frame 100: " << at100 << ", at 300: " << at300;
     EXPECT_TRUE(contains(lines[299], "\"playing\": true"));
     fs::remove(log);
 }
