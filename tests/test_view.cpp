@@ -273,8 +273,9 @@ TEST_F(View, ThreeHundredFramesOfAGltfClipKeepResidentMemory) {
     EXPECT_GT(at100, 0);
     // Under AddressSanitizer freed blocks wait in its quarantine (256 MiB), so resident memory
     // measures that, not the frame loop: the bound is checked in the plain build only.
-    if (!test::kSanitized)
+    if (!test::kSanitized) {
         EXPECT_LE(std::abs(at300 - at100), 2048) << "resident KiB at frame 100: " << at100 << ", at 300: " << at300;
+    }
     EXPECT_TRUE(contains(lines[299], "\"playing\": true"));
     fs::remove(log);
 }
