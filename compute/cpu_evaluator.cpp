@@ -350,4 +350,14 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out) const { vertexNormalsScalar(out)
 template class CpuEvaluator<float>;
 template class CpuEvaluator<double>;
 
+template <class T>
+void evaluateFaceVarying(const FaceVaryingTable& table, std::span<const T> control, std::span<T> refined) {
+    static const SurfaceTable noSurface;
+    CpuEvaluator<T> evaluator(table.perLevel, noFactorizedTable(), noSurface, TableForm::PerLevel, table.width, 1);
+    evaluator.evaluate(control, refined);
+}
+
+template void evaluateFaceVarying<float>(const FaceVaryingTable&, std::span<const float>, std::span<float>);
+template void evaluateFaceVarying<double>(const FaceVaryingTable&, std::span<const double>, std::span<double>);
+
 }  // namespace psub

@@ -108,6 +108,12 @@ private:
     std::vector<T> tileScratch_;  // per thread: tileScratchSize values
 };
 
+// Refines a face-varying channel (psub/tables.h) on the calling thread: `control` holds
+// table.perLevel.controlCount values of table.width each, `refined` table.valueCount(). UVs
+// usually do not change from frame to frame: call this when they do, not every frame.
+template <class T>
+void evaluateFaceVarying(const FaceVaryingTable& table, std::span<const T> control, std::span<T> refined);
+
 extern template class CpuEvaluator<float>;
 extern template class CpuEvaluator<double>;
 

@@ -61,6 +61,7 @@ struct Refinement {
     FactorizedTable factorized;  // empty unless RefineOptions::factorized
     SurfaceTable surface;
     TiledTable tiled;            // empty unless RefineOptions::tiled
+    FaceVaryingTable uv;         // empty unless the mesh has UVs (Mesh::uv)
     double topologyMs = 0, perLevelMs = 0, factorizedMs = 0, tiledMs = 0;
 };
 

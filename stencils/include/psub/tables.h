@@ -77,4 +77,20 @@ struct SurfaceTable {
     std::vector<std::uint32_t> vertexOffsets{0}, vertexFaces;  // faces around each vertex
 };
 
+// A face-varying channel's tables (docs/face-varying.md): per-level rows over the channel's
+// own values ("face-varying vertices": one per vertex and side of a seam), from the control
+// values to the finest level's; and the finest level's faces as drawn and written with the
+// channel. Those are the surface's faces, except that a face straddling a seam is split along
+// the seam into two triangles, so that no face mixes values of two sides.
+struct FaceVaryingTable {
+    std::uint32_t width = 2;
+    PerLevelTable perLevel;  // controlCount: the mesh's value count
+    std::vector<std::uint32_t> faceOffsets{0};
+    std::vector<std::uint32_t> faceVerts;   // per corner: the surface (position) vertex
+    std::vector<std::uint32_t> faceValues;  // per corner: the channel's refined value
+
+    bool empty() const { return faceVerts.empty(); }
+    std::uint32_t valueCount() const { return perLevel.refinedCount(); }
+};
+
 }  // namespace psub

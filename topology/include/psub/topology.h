@@ -50,11 +50,26 @@ struct Source {
     std::vector<std::uint32_t> faceLine;    // 1-based line of each `f`
 };
 
-// A polygon mesh: faces plus xyz positions (3 doubles per vertex).
+// A face-varying channel (texture coordinates first): every face corner (each entry of
+// Faces::verts, in the same order) names one of `values` (`width` doubles each). Two faces
+// that meet at a vertex but name different values there are on two sides of a seam
+// (docs/face-varying.md). Empty `corners`: the mesh has no such channel.
+struct FaceVarying {
+    std::uint32_t width = 2;
+    std::vector<double> values;
+    std::vector<Index> corners;            // one per face corner, or none
+    std::vector<std::uint32_t> valueLine;  // 1-based line of each value (`vt`), when read from OBJ
+
+    bool empty() const { return corners.empty(); }
+    Index valueCount() const { return width == 0 ? 0 : Index(values.size() / width); }
+};
+
+// A polygon mesh: faces plus xyz positions (3 doubles per vertex), and optional UVs.
 struct Mesh {
     Faces faces;
     std::vector<double> positions;
     Source source;
+    FaceVarying uv;
 };
 
 // "FILE:LINE: face N" / "face N": messages number faces and vertices from 1, as OBJ does.
