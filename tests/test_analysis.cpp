@@ -308,10 +308,7 @@ TEST(Fidelity, CubeShrinksToAFewPercentOfCatmullClarkAtEqualFaces) {
     EXPECT_THROW(compareWithCatmark(cube.mesh, cube.checked.connectivity, 3), std::invalid_argument);
 }
 
-std::string readFile(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using test::readFile;
 
 TEST(Fidelity, PlotIsAPngOfTheAdvertisedSize) {
     const auto cube = load(test::dataPath("cube.obj"));
@@ -364,28 +361,10 @@ TEST(BoundaryAspect, PaperBoundaryTrianglesGrowThreeTimesThinnerEachStep) {
     EXPECT_LT(smooth.back().median, paper11.back().median / 50);
 }
 
-struct CommandResult {
-    int status = -1;
-    std::string out;
-};
+using CommandResult = test::PsubRun;
+CommandResult psub(const std::string& args) { return test::runPsub(args); }
 
-CommandResult psub(const std::string& args) {
-    // ctest runs tests in parallel processes: the file names carry the process id.
-    const std::string outPath = testing::TempDir() + "/psub-analysis-stdout-" + std::to_string(::getpid()) + ".txt";
-    const std::string command = "'" PSUB_EXE "' " + args + " >'" + outPath + "' 2>/dev/null </dev/null";
-    const int raw = std::system(command.c_str());
-    CommandResult run;
-    if (raw != -1 && WIFEXITED(raw)) run.status = WEXITSTATUS(raw);
-    run.out = readFile(outPath);
-    std::filesystem::remove(outPath);
-    return run;
-}
-
-std::size_t countOf(const std::string& text, const std::string& needle) {
-    std::size_t count = 0;
-    for (std::size_t at = text.find(needle); at != std::string::npos; at = text.find(needle, at + 1)) ++count;
-    return count;
-}
+using test::countOf;
 
 TEST(AnalyzeCommand, JsonHasOneRecordPerValenceAndRulesWithTheStableFields) {
     const CommandResult r = psub("analyze --valence 2,3 --rules both --json");

@@ -49,7 +49,7 @@ using namespace psub::test;
 using test::inputErrorOf;
 constexpr double kPi = std::numbers::pi;
 
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+using test::contains;
 
 // ---------------------------------------------------------------------------------------
 // Procedural

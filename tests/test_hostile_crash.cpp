@@ -1,6 +1,6 @@
 // Class 1 of the hostile inputs: what crashed psub. Huge finite coordinates reaching compare's
 // distance grid, and glTF JSON nested thousands of levels deep.
-#include "hostile_support.h"
+#include "test_support.h"
 
 #include "psub/analysis.h"
 #include "psub/animation.h"

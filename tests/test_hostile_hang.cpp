@@ -1,7 +1,7 @@
 // Class 2 of the hostile inputs: what hung psub. A glTF buffer or image URI naming a FIFO (or
 // any file that is not regular: directory, device) is refused by stat before anything opens
 // it. Each run has a timeout, so a hang fails the test instead of hanging it.
-#include "hostile_support.h"
+#include "test_support.h"
 
 #include <sys/stat.h>
 

@@ -2,7 +2,7 @@
 // 3, 4 (w), 6 or 7 (colour) numbers and nothing else, so a continuation that runs a face into a
 // `v` line is an error, not a vanished face; glTF byte offsets must be non-negative, a glb
 // must be version 2 and the `scene` must exist.
-#include "hostile_support.h"
+#include "test_support.h"
 
 #include "psub/topology.h"
 

@@ -2,7 +2,7 @@
 // with the file and element (and OpenSubdiv prints nothing on stdout); stats, compare and demo
 // still do the P-S part. Numbers beyond double's range say so. A file too big for memory is
 // named.
-#include "hostile_support.h"
+#include "test_support.h"
 
 #include "psub/catmark.h"
 #include "psub/topology.h"

@@ -3,7 +3,7 @@
 // octal-looking, trailing-junk and out-of-range values, is a usage error (exit 2) on one
 // line naming the option, and nothing is written; decimal values with leading zeros mean
 // what they say.
-#include "output_test_support.h"
+#include "test_support.h"
 
 #include "numbers.h"
 

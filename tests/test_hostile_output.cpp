@@ -3,7 +3,7 @@
 // standard output, and multi-file commands failing part way. Each case checks the exit
 // status, the one message line naming the file, that nothing is left behind, and that
 // the input is unchanged.
-#include "output_test_support.h"
+#include "test_support.h"
 
 #include <nlohmann/json.hpp>
 

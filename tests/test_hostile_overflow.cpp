@@ -3,7 +3,7 @@
 // double 1e60) naming file, line and vertex, and never write a non-finite value; the
 // evaluators, which check nothing per frame, turn out-of-range control points into non-finite
 // results, never into a crash or an access out of bounds (ASan/UBSan builds run these too).
-#include "hostile_support.h"
+#include "test_support.h"
 
 #include "psub/evaluator.h"
 #include "psub/stencils.h"

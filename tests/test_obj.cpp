@@ -24,9 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using test::inputErrorOf;
 
-bool contains(const std::string& text, const std::string& part) {
-    return text.find(part) != std::string::npos;
-}
+using test::contains;
 
 Mesh parse(std::string_view text, std::vector<std::string>* warnings = nullptr) {
     return parseObj(text, "test.obj", warnings);
@@ -43,35 +41,9 @@ std::vector<std::vector<Index>> facesOf(const Faces& faces) {
     return out;
 }
 
-std::string readText(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-void writeText(const fs::path& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
-
-// A fresh directory under the test temp dir, removed with everything in it.
-class TempDir {
-public:
-    TempDir() {
-        std::string pattern = (fs::path(testing::TempDir()) / "psub-obj-XXXXXX").string();
-        if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-        path_ = pattern;
-    }
-    ~TempDir() {
-        std::error_code ignored;
-        fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, ignored);
-        fs::remove_all(path_, ignored);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-    const fs::path& path() const { return path_; }
-
-private:
-    fs::path path_;
-};
+const auto readText = test::readFile;
+const auto writeText = test::writeFile;
+using TempDir = test::ScratchDir;
 
 // Four vertices and two triangles [1 2 3] [1 3 4] (0-based below).
 constexpr const char* kSquareVertices =

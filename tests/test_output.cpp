@@ -3,7 +3,7 @@
 #include "psub/output.h"
 #include "psub/topology.h"
 
-#include "output_test_support.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 

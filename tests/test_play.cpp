@@ -21,41 +21,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Outcome {
-    int status = -1;
-    std::string out, err;
-};
-
-std::string readFile(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using Outcome = test::PsubRun;
+using test::contains;
+using test::noVulkanAllowed;
+using test::readFile;
 
 // Runs psub with the Vulkan validation layer on. Under the sanitizers, drawing leaves Mesa
 // lavapipe's process-wide draw state to LeakSanitizer (112 bytes, never freed; see
 // tests/test_render.cpp): the leak check is off for runs that draw.
 Outcome psub(const std::string& args) {
-    const std::string base = testing::TempDir() + "/psub-play-" + std::to_string(::getpid());
-    const bool draws = args.find("--render") != std::string::npos;
-    const std::string command = std::string(test::kSanitized && draws ? "ASAN_OPTIONS=detect_leaks=0 " : "") +
-                                "PSUB_VULKAN_VALIDATION=1 '" PSUB_EXE "' " + args + " >'" + base + ".out' 2>'" + base +
-                                ".err' </dev/null";
-    const int raw = std::system(command.c_str());
-    Outcome run;
-    if (raw != -1 && WIFEXITED(raw)) run.status = WEXITSTATUS(raw);
-    run.out = readFile(base + ".out");
-    run.err = readFile(base + ".err");
-    fs::remove(base + ".out");
-    fs::remove(base + ".err");
-    return run;
+    test::PsubHow how;
+    how.environment = std::string(contains(args, "--render") ? test::kNoLeakCheck : "") + " PSUB_VULKAN_VALIDATION=1";
+    return test::runPsub(args, how);
 }
-
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 // Runs `psub play ARGS --json`, on the CPU or with Vulkan.
 Outcome play(const std::string& args, bool vulkan) {

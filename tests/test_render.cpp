@@ -29,10 +29,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
+using test::noVulkanAllowed;
 
 // Synchronization validation too, except under AddressSanitizer: Debian's layer (1.3.239)
 // leaks with it (KhronosGroup/Vulkan-ValidationLayers#6033) and LeakSanitizer would fail the run.
@@ -498,10 +495,9 @@ TEST(RenderImage, CaptionsAndPanels) {
 // psub's exit status. Under the sanitizers its leak check is off: the driver's state above
 // would be reported when psub unloads lavapipe.
 int runPsub(const std::string& arguments, const std::string& environment = "") {
-    const std::string sanitizer = kSanitized ? "ASAN_OPTIONS=detect_leaks=0 " : "";
-    const std::string command = sanitizer + environment + " " + PSUB_EXE + " " + arguments + " >/dev/null 2>&1";
-    const int status = std::system(command.c_str());
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    test::PsubHow how;
+    how.environment = std::string(test::kNoLeakCheck) + " " + environment;
+    return test::runPsub(arguments, how).status;
 }
 
 class RenderCommand : public ::testing::Test {

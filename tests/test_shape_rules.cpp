@@ -171,10 +171,6 @@ TEST(ShapeRules, MovesTheCubesCornersAndTheCowsTriangleCentroids) {
     }
 }
 
-std::string readFile(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 // The number after "key": in `json` at or after `from`.
 double numberAfter(const std::string& json, const std::string& key, std::size_t from = 0) {
@@ -184,14 +180,10 @@ double numberAfter(const std::string& json, const std::string& key, std::size_t 
 }
 
 std::string compareJson(const std::string& rules) {
-    const std::string outPath = testing::TempDir() + "/psub-shape-compare-" + std::to_string(::getpid()) + ".json";
-    const std::string command = "'" PSUB_EXE "' compare '" + test::dataPath("cube.obj") + "' --levels 4 --rules " + rules +
-                                " --json >'" + outPath + "' 2>/dev/null </dev/null";
-    const int raw = std::system(command.c_str());
-    EXPECT_TRUE(raw != -1 && WIFEXITED(raw) && WEXITSTATUS(raw) == 0) << command;
-    const std::string out = readFile(outPath);
-    std::filesystem::remove(outPath);
-    return out;
+    const test::PsubRun run = test::runPsub("compare " + test::quoted(test::dataPath("cube.obj")) + " --levels 4 --rules " +
+                                            rules + " --json");
+    EXPECT_EQ(run.status, 0) << run.err;
+    return run.out;
 }
 
 double volumeRatio(const std::string& json) {
@@ -222,21 +214,8 @@ TEST(ShapeRules, TheOptimisersTestMeshIsTheCubeAtValence3AndHasTwoPolesOfValence
     EXPECT_THROW(trapezohedron(2), std::invalid_argument);
 }
 
-struct CommandResult {
-    int status = -1;
-    std::string out;
-};
-
-CommandResult psub(const std::string& args) {
-    const std::string outPath = testing::TempDir() + "/psub-shape-stdout-" + std::to_string(::getpid()) + ".txt";
-    const std::string command = "'" PSUB_EXE "' " + args + " >'" + outPath + "' 2>/dev/null </dev/null";
-    const int raw = std::system(command.c_str());
-    CommandResult run;
-    if (raw != -1 && WIFEXITED(raw)) run.status = WEXITSTATUS(raw);
-    run.out = readFile(outPath);
-    std::filesystem::remove(outPath);
-    return run;
-}
+using CommandResult = test::PsubRun;
+CommandResult psub(const std::string& args) { return test::runPsub(args); }
 
 TEST(ShapeRules, AnalyzeReportsTheShapeRulesAndTheOptimiserChecksItsValences) {
     const CommandResult r = psub("analyze --valence 3,5 --rules shape --json");

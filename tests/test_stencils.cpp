@@ -35,15 +35,7 @@ Refined refineModel(const std::string& path, int steps, Preprocess mode = Prepro
     return r;
 }
 
-double diagonal(const std::vector<double>& p) {
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (std::size_t i = 0; i < p.size(); ++i) {
-        lo[i % 3] = std::min(lo[i % 3], p[i]);
-        hi[i % 3] = std::max(hi[i % 3], p[i]);
-    }
-    return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                     (hi[2] - lo[2]) * (hi[2] - lo[2]));
-}
+const auto diagonal = test::boundingDiagonal;
 
 template <class T>
 std::vector<T> evaluateWith(const Refined& r, TableForm form, const std::vector<double>& control,

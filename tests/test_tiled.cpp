@@ -37,14 +37,7 @@ test::Loaded loadTorus(Index nu, Index nv) {
     return loaded;
 }
 
-double diagonal(const std::vector<double>& p) {
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (std::size_t i = 0; i < p.size(); ++i) {
-        lo[i % 3] = std::min(lo[i % 3], p[i]);
-        hi[i % 3] = std::max(hi[i % 3], p[i]);
-    }
-    return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-}
+const auto diagonal = test::boundingDiagonal;
 
 // The tiled evaluator's output for `control`, in canonical order.
 template <class T>

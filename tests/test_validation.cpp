@@ -25,9 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 using test::inputErrorOf;
 
-bool contains(const std::string& text, const std::string& part) {
-    return text.find(part) != std::string::npos;
-}
+using test::contains;
 
 std::string badPath(const std::string& name) { return std::string(PSUB_TEST_DATA "/bad/") + name + ".obj"; }
 
@@ -311,29 +309,9 @@ TEST(ValidationInMemory, BuildConnectivityNamesTheLineThroughTheSource) {
 // ---------------------------------------------------------------------------------------
 // The psub program
 
-std::string readText(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-std::vector<std::string> entriesOf(const fs::path& dir) {
-    std::vector<std::string> names;
-    for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
-    std::sort(names.begin(), names.end());
-    return names;
-}
-
-std::vector<std::string> linesOf(const std::string& text) {
-    std::vector<std::string> lines;
-    std::size_t start = 0;
-    while (start < text.size()) {
-        const std::size_t eol = text.find('\n', start);
-        lines.push_back(text.substr(start, eol - start));
-        if (eol == std::string::npos) break;
-        start = eol + 1;
-    }
-    return lines;
-}
+const auto readText = test::readFile;
+const auto entriesOf = test::namesIn;
+using test::linesOf;
 
 class CliTest : public testing::Test {
 protected:
@@ -349,24 +327,10 @@ protected:
         fs::remove_all(root_, ignored);
     }
 
-    struct Result {
-        int status = -1;
-        std::string out, err;
-    };
+    using Result = test::PsubRun;
 
     // Runs psub with `args` (shell words); stdout and stderr go to files outside out_.
-    Result psub(const std::string& args) {
-        const fs::path outFile = root_ / "stdout.txt", errFile = root_ / "stderr.txt";
-        const std::string command = "'" PSUB_EXE "' " + args + " >'" + outFile.string() + "' 2>'" +
-                                    errFile.string() + "' </dev/null";
-        const int raw = std::system(command.c_str());
-        Result result;
-        EXPECT_TRUE(raw != -1 && WIFEXITED(raw)) << command;
-        if (raw != -1 && WIFEXITED(raw)) result.status = WEXITSTATUS(raw);
-        result.out = readText(outFile);
-        result.err = readText(errFile);
-        return result;
-    }
+    Result psub(const std::string& args) { return test::runPsub(args); }
 
     std::string output() const { return (out_ / "out.obj").string(); }
 

@@ -25,15 +25,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Outcome {
-    int status = -1;
-    std::string out, err;
-};
-
-std::string readFile(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using Outcome = test::PsubRun;
+using test::contains;
+using test::readFile;
 
 std::string temp(const std::string& name) {
     return testing::TempDir() + "/psub-view-" + std::to_string(::getpid()) + "-" + name;
@@ -41,33 +35,16 @@ std::string temp(const std::string& name) {
 
 // Runs `prefix psub args` with the validation layer on; stdout and stderr captured.
 Outcome run(const std::string& prefix, const std::string& args) {
-    const std::string base = temp("run");
-    const std::string command = std::string(test::kSanitized ? "ASAN_OPTIONS=detect_leaks=0 " : "") +
-                                "PSUB_VULKAN_VALIDATION=1 " + prefix + " '" PSUB_EXE "' " + args + " >'" + base +
-                                ".out' 2>'" + base + ".err' </dev/null";
-    const int raw = std::system(command.c_str());
-    Outcome r;
-    if (raw != -1 && WIFEXITED(raw)) r.status = WEXITSTATUS(raw);
-    r.out = readFile(base + ".out");
-    r.err = readFile(base + ".err");
-    fs::remove(base + ".out");
-    fs::remove(base + ".err");
-    return r;
+    test::PsubHow how;
+    how.environment = std::string(test::kNoLeakCheck) + " PSUB_VULKAN_VALIDATION=1";
+    how.prefix = prefix;
+    return test::runPsub(args, how);
 }
 
 // psub view under a fresh Xvfb server.
 Outcome view(const std::string& args) { return run("xvfb-run -a -s '-screen 0 1600x1200x24'", "view " + args); }
 
-// A path in single quotes for the shell (built by appending: GCC 12 warns falsely on
-// "literal" + temporary).
-std::string q(const std::string& path) {
-    std::string quoted(1, '\'');
-    quoted += path;
-    quoted += '\'';
-    return quoted;
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+std::string q(const std::string& path) { return test::quoted(path); }
 
 // Why psub view cannot run here (asked once): empty when it can.
 const std::string& windowProblem() {
@@ -83,8 +60,7 @@ class View : public ::testing::Test {
 protected:
     void SetUp() override {
         if (windowProblem().empty()) return;
-        const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-        if (allow && std::string(allow) == "1") GTEST_SKIP() << "no window (allowed by PSUB_ALLOW_NO_VULKAN=1): " << windowProblem();
+        if (test::noVulkanAllowed()) GTEST_SKIP() << "no window (allowed by PSUB_ALLOW_NO_VULKAN=1): " << windowProblem();
         FAIL() << "no window: " << windowProblem() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
     }
 };

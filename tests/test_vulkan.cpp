@@ -33,10 +33,7 @@
 namespace psub {
 namespace {
 
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
+using test::noVulkanAllowed;
 
 // Synchronization validation too, except under AddressSanitizer: Debian's layer (1.3.239)
 // leaks with it (KhronosGroup/Vulkan-ValidationLayers#6033) and LeakSanitizer would fail the run.
@@ -125,14 +122,7 @@ Tables tablesFor(const std::string& path, int steps, bool factorized = true, Bou
     return t;
 }
 
-double diagonal(const std::vector<double>& p) {
-    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-    for (std::size_t i = 0; i < p.size(); ++i) {
-        lo[i % 3] = std::min(lo[i % 3], p[i]);
-        hi[i % 3] = std::max(hi[i % 3], p[i]);
-    }
-    return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-}
+const auto diagonal = test::boundingDiagonal;
 
 // Frame `frame` of a twisting wave over the model, `width` values per control point: xyz and
 // then linear primvars of them.

@@ -2,6 +2,7 @@
 // messenger and queue submission take different locks. The submit runs on its own thread so
 // that a hang fails the test (and ends the process) instead of stalling the suite.
 #include "psub/vulkan_evaluator.h"
+#include "test_support.h"
 
 // Internal headers: the context's handles and the submit helper under test.
 #include "device.h"
@@ -19,10 +20,7 @@
 namespace psub {
 namespace {
 
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
+using test::noVulkanAllowed;
 
 // An empty, recorded command buffer and a fence created already signaled: submitting with a
 // signaled fence breaks VUID-vkQueueSubmit-fence-00063, which the layer reports from inside
