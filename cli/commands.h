@@ -4,8 +4,11 @@
 #include "psub/rules.h"
 #include "psub/topology.h"
 
+#include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace psub::cli {
 
@@ -50,5 +53,25 @@ Mesh loadChecked(const std::string& path, CheckedMesh& checked);
 // Where the bundled models live: $PSUB_DATA_DIR, else the source tree's data/, else
 // <prefix>/share/psub next to the installed program.
 std::string dataDir();
+
+// ---- Shared by the commands' own files (commands.cpp, demo.cpp)
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point start);
+
+// A checked input mesh and why OpenSubdiv cannot refine it (then P-S only).
+struct Loaded {
+    Mesh mesh;
+    CheckedMesh checked;
+    std::optional<std::string> ccProblem;
+};
+Loaded load(const std::string& path);
+
+// The comment at the top of a written OBJ file.
+std::string header(const std::string& input, const std::string& what);
+
+// Prints P-S levels then Catmull-Clark levels with the face counts P-S reaches (up to `maxFaces`).
+void printStats(const Loaded& loaded, const Hierarchy& hierarchy, const std::vector<double>& levelMs,
+                std::uint64_t maxFaces);
 
 }  // namespace psub::cli

@@ -1,0 +1,73 @@
+// The memory guard of subdivide and stats: an estimate of the peak bytes of refining to a
+// level, and the refusal (naming the most levels that fit) when it exceeds the limit.
+#include "memory_guard.h"
+
+
+#include <cstdio>
+#include <string>
+
+#include <unistd.h>
+
+namespace psub::cli {
+namespace {
+
+std::uint64_t physicalMemory() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGESIZE);
+    return pages > 0 && pageSize > 0 ? std::uint64_t(pages) * std::uint64_t(pageSize) : 0;
+}
+
+// Rough peak bytes of refining to `steps` topological steps with psub::refine, which keeps
+// two levels of topology at a time (about 44 B per half-edge, 30 B per vertex, 8 B per face),
+// plus every level's table rows, the finest surface, the evaluator's level buffers (doubles)
+// and the OBJ text of the finest level.
+double estimateBytes(const Counts& input, int steps, Boundary boundary, bool preprocessed) {
+    auto halfedges = [](const Counts& c) { return 2.0 * double(c.edges) - double(c.boundaryEdges); };
+    auto topology = [&](const Counts& c) { return 44 * halfedges(c) + 30 * double(c.vertices) + 8 * double(c.faces); };
+    auto after = [&](int k) { return countsAfterSteps(input, k, boundary, preprocessed); };
+    const Counts finest = after(steps);
+    double bytes = topology(finest) + (steps > 0 ? topology(after(steps - 1)) : 0.0);
+    for (int k = 1; k <= steps; ++k) {
+        const Counts parent = after(k - 1), child = after(k);
+        bytes += 4 * (double(child.vertices) + double(parent.vertices) + 3 * halfedges(parent));  // table
+        bytes += 24 * double(child.vertices);  // evaluator buffers
+    }
+    bytes += 4 * (double(finest.faces) + 2 * halfedges(finest) + double(finest.vertices));  // surface
+    return bytes + 60 * double(finest.vertices) + 25 * double(finest.faces);                 // OBJ text
+}
+
+std::string humanBytes(double bytes) {
+    const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+    int unit = 0;
+    while (bytes >= 1024 && unit < 6) bytes /= 1024, ++unit;
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f %s", bytes, units[unit]);
+    return text;
+}
+
+
+}  // namespace
+
+// Throws InputError when `--levels levels` would not fit in `limit` bytes (or in 32-bit
+// indices), naming the estimate and the most levels that fit. A level is `stepsPerLevel`
+// topological steps (2 for Catmull-Clark, which quadruples the faces), after `extraSteps`
+// (the paired method).
+void guardMemory(const Mesh& mesh, const Counts& input, int levels, int stepsPerLevel, int extraSteps,
+                 std::uint64_t limit, Boundary boundary) {
+    if (limit == 0) limit = physicalMemory() / 4 * 3;
+    auto steps = [&](int l) { return extraSteps + stepsPerLevel * l; };
+    auto fits = [&](int l) {
+        const Counts c = countsAfterSteps(input, steps(l), boundary, extraSteps > 0);
+        return estimateBytes(input, steps(l), boundary, extraSteps > 0) <= double(limit) &&
+               2.0 * double(c.edges) < double(kNoIndex) && double(c.vertices) < double(kNoIndex);
+    };
+    if (fits(levels)) return;
+    int most = -1;
+    while (most + 1 < levels && fits(most + 1)) ++most;
+    throw InputError(mesh.source.path + ": --levels " + std::to_string(levels) + " would need about " +
+                     humanBytes(estimateBytes(input, steps(levels), boundary, extraSteps > 0)) + " (limit " + humanBytes(double(limit)) +
+                     ", and 32-bit indices); " +
+                     (most >= 0 ? "--levels " + std::to_string(most) + " is the most that fits"
+                                : std::string("not even the input fits")));
+}
+
+}  // namespace psub::cli
