@@ -25,6 +25,7 @@ struct VulkanContext::Impl {
     VkDeviceSize maxAllocation = 0;        // maintenance3 maxMemoryAllocationSize
     std::uint32_t timestampValidBits = 0;  // of the queue family; 0: no timestamps
     bool validation = false, log = false;
+    bool owned = true;  // false for an adopted device (psub/vulkan_interop.h): nothing destroyed
 
     std::atomic<std::uint64_t> messages{0};
     // Two locks, never held together: the messenger callback runs inside Vulkan calls,
