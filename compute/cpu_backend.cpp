@@ -28,6 +28,12 @@ public:
           surface_(form == TableForm::Tiled ? tables.tiled.surface : tables.surface),
           positions_(3 * std::size_t(evaluator_.refinedCount())) {}
 
+    void evaluateKept(std::span<const float> control, bool withNormals) override {
+        if (withNormals && normals_.size() != positions_.size()) normals_.resize(positions_.size());  // once
+        evaluate(control, positions_, withNormals ? std::span<float>(normals_) : std::span<float>());
+    }
+    bool resultsOnHost() const override { return true; }
+
     std::uint32_t controlCount() const override { return evaluator_.controlCount(); }
     std::uint32_t refinedCount() const override { return evaluator_.refinedCount(); }
     const SurfaceTable& surface() const override { return surface_; }
@@ -51,6 +57,7 @@ private:
     CpuEvaluator<float> evaluator_;
     const SurfaceTable& surface_;
     std::vector<float> positions_;  // the results when the caller passes no refined span
+    std::vector<float> normals_;    // evaluateKept's normals (allocated on its first use)
     StageTimes times_;
 };
 

@@ -133,6 +133,9 @@ TEST(EvaluateContract, VulkanBackendMatchesTheCpuAndRefusesTiled) {
         EXPECT_EQ(e->device(), context->deviceName());
     }
     EXPECT_THROW(makeVulkanEvaluator(*context, tablesOf(c.r), TableForm::Tiled), std::invalid_argument);
+    // The one-line switch from makeCpuEvaluator: a context of its own.
+    const std::unique_ptr<Evaluator> owning = makeVulkanEvaluator(tablesOf(c.r), TableForm::PerLevel);
+    checkBackend(*owning, c, TableForm::PerLevel, 1e-5f);
     EXPECT_EQ(context->validationMessageCount(), 0u) << context->lastValidationMessage();
 }
 #endif

@@ -984,6 +984,37 @@ std::unique_ptr<Evaluator> makeVulkanEvaluator(VulkanContext& context, const Eva
                                              options);
 }
 
+namespace {
+
+// A Vulkan evaluator with the context it runs on (makeVulkanEvaluator without a context).
+class OwningVulkanEvaluator final : public Evaluator {
+public:
+    OwningVulkanEvaluator(const EvaluatorTables& tables, TableForm form)
+        : context_(std::make_unique<VulkanContext>()), evaluator_(makeVulkanEvaluator(*context_, tables, form)) {}
+    std::uint32_t controlCount() const override { return evaluator_->controlCount(); }
+    std::uint32_t refinedCount() const override { return evaluator_->refinedCount(); }
+    const SurfaceTable& surface() const override { return evaluator_->surface(); }
+    std::string device() const override { return evaluator_->device(); }
+    void evaluate(std::span<const float> control, std::span<float> refined, std::span<float> normals) override {
+        evaluator_->evaluate(control, refined, normals);
+    }
+    void evaluateKept(std::span<const float> control, bool withNormals) override {
+        evaluator_->evaluateKept(control, withNormals);
+    }
+    bool resultsOnHost() const override { return false; }
+    StageTimes lastTimes() const override { return evaluator_->lastTimes(); }
+
+private:
+    std::unique_ptr<VulkanContext> context_;  // declared first: destroyed after the evaluator
+    std::unique_ptr<Evaluator> evaluator_;
+};
+
+}  // namespace
+
+std::unique_ptr<Evaluator> makeVulkanEvaluator(const EvaluatorTables& tables, TableForm form) {
+    return std::make_unique<OwningVulkanEvaluator>(tables, form);
+}
+
 void VulkanEvaluator::Impl::frame(std::span<const float> control, unsigned kind, std::span<float> refinedOut,
                                   std::span<float> normalsOut) {
     Impl& e = *this;

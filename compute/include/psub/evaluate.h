@@ -71,6 +71,12 @@ public:
     // buffers); normals: empty (none computed) or 3 * refinedCount() floats.
     virtual void evaluate(std::span<const float> control, std::span<float> refined,
                           std::span<float> normals = {}) = 0;
+    // One frame whose results stay with the backend (nothing copied out): positions, and normals
+    // when `withNormals`. For drawing from the backend's own buffers and for timing.
+    virtual void evaluateKept(std::span<const float> control, bool withNormals) = 0;
+    // True when the backend keeps its results in host memory anyway (copying them out into the
+    // caller's spans costs no transfer): a caller that may want them asks for them every frame.
+    virtual bool resultsOnHost() const = 0;
     virtual StageTimes lastTimes() const = 0;
 };
 

@@ -173,8 +173,10 @@ public:
     std::uint32_t deviceStride() const;
 
     // One frame whose results stay on the device (nothing read back): the stencils and, with
-    // `withNormals`, the normals pass. For timing a playback loop that draws on the device.
+    // `withNormals`, the normals pass. For a playback loop that draws on the device.
     void evaluateOnDevice(std::span<const float> control, bool withNormals);
+    void evaluateKept(std::span<const float> control, bool withNormals) override { evaluateOnDevice(control, withNormals); }
+    bool resultsOnHost() const override { return false; }
 
     // CpuEvaluator's contract: normals of the given refined positions (uploaded first).
     void normals(std::span<const float> refined, std::span<float> normals);
@@ -196,5 +198,8 @@ private:
 // factory (psub/evaluate.h).
 std::unique_ptr<Evaluator> makeVulkanEvaluator(VulkanContext& context, const EvaluatorTables& tables, TableForm form,
                                                const VulkanEvaluatorOptions& options = {});
+// The same on a context of its own (VulkanContext with default options), owned by the evaluator:
+// the one-line switch from makeCpuEvaluator. Throws VulkanError when no device is usable.
+std::unique_ptr<Evaluator> makeVulkanEvaluator(const EvaluatorTables& tables, TableForm form);
 
 }  // namespace psub
