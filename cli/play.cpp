@@ -181,6 +181,7 @@ struct Playback {
 #endif
     std::unique_ptr<Evaluator> evaluator;  // the backend, chosen once (makeEvaluator)
     bool readBack = false;                 // results copied to `refined` and `normals` every frame
+    bool drawsKept = false;                // the renderer draws the evaluator's device buffers
 #if PSUB_HAVE_RENDER
     std::unique_ptr<Renderer> renderer;
     Camera camera;
@@ -190,7 +191,6 @@ struct Playback {
     std::string device;
 
     bool rendering() const { return !o.renderDir.empty(); }
-    bool needHostResults() const { return rendering() || verifier.has_value(); }
 
     // One frame: its stage times go to `t`; with `record` false (the warm-up) nothing is
     // recorded, written or verified.
@@ -231,7 +231,8 @@ void Playback::frame(int index, Timings& t, bool record) {
 #if PSUB_HAVE_RENDER
     if (rendering()) {
         if (o.wireframe == int(Wireframe::Control)) renderer->setControlPositions(control);
-        renderer->draw(refined, normals, camera, image);
+        if (drawsKept) renderer->drawKept(camera, image);
+        else renderer->draw(refined, normals, camera, image);
         const DrawTimes d = renderer->lastTimes();
         stage[Upload] += d.uploadMs;
         stage[Render] = d.renderMs;
@@ -317,14 +318,21 @@ int prepare(Playback& p) {
 #endif
         p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, nullptr);
     p.device = p.evaluator->device();
-    p.readBack = p.needHostResults() || p.evaluator->resultsOnHost();
+#if PSUB_HAVE_RENDER
+    // A Vulkan evaluator's results are drawn where they are, with no read-back (unless --verify
+    // reads them anyway); other backends' are uploaded by the renderer.
+    const auto* onDevice = dynamic_cast<const VulkanEvaluator*>(p.evaluator.get());
+    p.drawsKept = p.rendering() && onDevice && !p.verifier;
+#endif
+    p.readBack = p.verifier || (p.rendering() && !p.drawsKept) || p.evaluator->resultsOnHost();
 #if PSUB_HAVE_RENDER
     if (p.rendering()) {
         RenderOptions ro;
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
-        p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro,
-                                                Polygons{cage.vertexCount, cage.offsets, cage.verts});
+        const Polygons control{cage.vertexCount, cage.offsets, cage.verts};
+        p.renderer = p.drawsKept ? std::make_unique<Renderer>(*p.context, *onDevice, ro, control)
+                                 : std::make_unique<Renderer>(*p.context, polygonsOf(p.evaluator->surface()), ro, control);
         // One camera for the whole clip: the box of the control points over one period.
         Box box;
         for (int k = 0; k < 8; ++k) {

@@ -732,6 +732,9 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
         memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
                       VK_ACCESS_HOST_READ_BIT);
     }
+    // The results drawn straight from these buffers (keptPositions, keptNormals) by later commands.
+    memoryBarrier(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT);
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, kQueryEnd);
     VK_CHECK(vkEndCommandBuffer(command));
 }
@@ -878,6 +881,8 @@ void VulkanEvaluator::evaluate(std::span<const float> control, std::span<float> 
 const SurfaceTable& VulkanEvaluator::surface() const { return *impl_->drawnSurface; }
 std::string VulkanEvaluator::device() const { return impl_->context.properties.deviceName; }
 std::uint32_t VulkanEvaluator::deviceStride() const { return impl_->levels.front().stride; }
+VulkanBufferRange VulkanEvaluator::keptPositions() const { return {impl_->refinedBuffer().buffer.buffer, 0}; }
+VulkanBufferRange VulkanEvaluator::keptNormals() const { return {impl_->normals.buffer.buffer, 0}; }
 
 StageTimes VulkanEvaluator::lastTimes() const {
     const HostFrameTimes& host = impl_->hostTimes;

@@ -171,6 +171,12 @@ public:
     void submit(const VulkanDeviceBuffers& buffers, const VulkanSubmitSync& sync);
     // Floats per vertex in device buffers: 4 for width 3 (x, y, z, padding), else width().
     std::uint32_t deviceStride() const;
+    // Where evaluateKept() leaves its results on the device (deviceStride() floats per position,
+    // 4 per normal; the buffers have vertex-buffer usage): what a renderer on the same context
+    // draws from with no read-back. Valid for the evaluator's lifetime; normals only when a
+    // surface table was given. Barriers: each frame ends with its writes visible to vertex input.
+    VulkanBufferRange keptPositions() const;
+    VulkanBufferRange keptNormals() const;
 
     // One frame whose results stay on the device (nothing read back): the stencils and, with
     // `withNormals`, the normals pass. For a playback loop that draws on the device.
