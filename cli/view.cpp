@@ -240,6 +240,8 @@ struct Viewer {
     Boundary boundary, wantedBoundary;
     bool playing, help = false, quit = false, framed = false;
     std::unique_ptr<Evaluator> evaluator;  // P-S on the backend chosen once (makeEvaluator)
+    // The same evaluator when its device buffers can be drawn from (Vulkan): no read-back.
+    const VulkanEvaluator* drawnFromDevice = nullptr;
     std::unique_ptr<CpuEvaluator<float>> ccNormals;
     Side ps, cc;
     std::vector<float> control;
@@ -300,6 +302,7 @@ void Viewer::adopt(Built b) {
     levels = built->levels, rules = built->rules, boundary = built->boundary;
     const Refinement& r = built->ps;
     evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, context.get());
+    drawnFromDevice = dynamic_cast<const VulkanEvaluator*>(evaluator.get());
     ccNormals = std::make_unique<CpuEvaluator<float>>(built->ccIdentity, built->none, built->cc, TableForm::PerLevel);
     ps.surface = &built->ps.surface;
     cc.surface = &built->cc;
@@ -337,7 +340,8 @@ void Viewer::makeRenderers() {
     const std::uint32_t left = scheme == 2 ? std::max(1u, width / 2) : width;
     if (showsPs()) {
         ro.width = ps.width = left;
-        ps.renderer = std::make_unique<Renderer>(*context, polygonsOf(*ps.surface), ro, cagePolygons);
+        ps.renderer = drawnFromDevice ? std::make_unique<Renderer>(*context, *drawnFromDevice, ro, cagePolygons)
+                                      : std::make_unique<Renderer>(*context, polygonsOf(*ps.surface), ro, cagePolygons);
     }
     if (showsCc()) {
         ro.width = cc.width = scheme == 2 ? std::max(1u, width - left) : width;
@@ -354,7 +358,9 @@ void Viewer::evaluate() {
     const Clock::time_point posed = Clock::now();
     stage[Deform] = msBetween(start, posed);
     if (showsPs()) {
-        evaluator->evaluate(control, ps.positions, ps.normals);
+        // Results read back only where the host needs them: for the camera to frame them.
+        if (drawnFromDevice && framed) evaluator->evaluateKept(control, true);
+        else evaluator->evaluate(control, ps.positions, ps.normals);
         const StageTimes times = evaluator->lastTimes();
         stage[Upload] = times.uploadMs;
         stage[Evaluate] = times.evaluateMs;
@@ -394,8 +400,10 @@ void Viewer::drawFrame(bool capture) {
     for (Side* side : {&ps, &cc}) {
         if (!side->renderer) continue;
         side->renderer->setControlPositions(control);
-        side->renderer->draw(side->positions, side->normals, orbit.camera(float(side->width) / float(height)),
-                             scheme == 2 ? side->picture : frame);
+        const Camera camera = orbit.camera(float(side->width) / float(height));
+        Image& picture = scheme == 2 ? side->picture : frame;
+        if (side == &ps && drawnFromDevice) side->renderer->drawKept(camera, picture);
+        else side->renderer->draw(side->positions, side->normals, camera, picture);
         const DrawTimes d = side->renderer->lastTimes();
         stage[Upload] += d.uploadMs, stage[Render] += d.renderMs, stage[Readback] += d.readbackMs;
     }
