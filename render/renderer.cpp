@@ -559,7 +559,7 @@ void Renderer::Impl::writeUniforms(const Camera& camera) {
 }
 
 Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control)
-    : impl_(std::make_unique<Impl>(context.impl(), options)) {
+    : impl_(std::make_unique<Impl>(contextInternals(context), options)) {
     Impl& r = *impl_;
     const VulkanContext::Impl& c = r.context;
     const std::uint32_t maxSize = c.properties.limits.maxImageDimension2D;

@@ -44,4 +44,7 @@ struct VulkanContext::Impl {
     }
 };
 
+// The context's innards, for PSub's own libraries (evaluator, renderer, presenter) and tests.
+inline VulkanContext::Impl& contextInternals(VulkanContext& context) { return *context.impl_; }
+
 }  // namespace psub

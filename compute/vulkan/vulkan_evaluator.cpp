@@ -7,6 +7,7 @@
 #include "psub/vulkan_interop.h"
 
 #include "device.h"
+#include "dispatch_plan.h"
 #include "pipelines.h"
 #include "resources.h"
 
@@ -99,10 +100,6 @@ struct Stage {
     const VertexBuffer* written = nullptr;
 };
 
-// One CSR table split into chunks whose entries fit one binding.
-struct CsrChunk {
-    std::uint64_t rowBegin, rowEnd, entryBegin, entryEnd, offsetsBegin;
-};
 
 // Table uploads: written in place where memory is host-visible, else through staging buffers
 // copied by one command buffer at the end.
@@ -219,7 +216,8 @@ struct VulkanEvaluator::Impl {
     // Construction steps.
     void makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride, bool mapped);
     Window window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin, std::uint64_t end) const;
-    bool fits(std::uint64_t bytes) const { return bytes + alignment <= limit; }
+    bool fits(std::uint64_t bytes) const { return bindingLimits().fits(bytes); }
+    BindingLimits bindingLimits() const;
     template <class Fits>
     std::vector<std::pair<std::uint64_t, std::uint64_t>> split(std::uint64_t rows, Fits fitsRange, const char* what) const;
     template <class Offset>
@@ -279,55 +277,26 @@ Window VulkanEvaluator::Impl::window(const Buffer& buffer, std::uint64_t element
     return w;
 }
 
-// Greedy split of rows [0, rows) into the longest chunks [a, b) for which fitsRange(a, b).
+BindingLimits VulkanEvaluator::Impl::bindingLimits() const { return {limit, alignment, maxRows}; }
+
 template <class Fits>
 std::vector<std::pair<std::uint64_t, std::uint64_t>> VulkanEvaluator::Impl::split(std::uint64_t rows, Fits fitsRange,
                                                                                    const char* what) const {
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> chunks;
-    for (std::uint64_t a = 0; a < rows;) {
-        std::uint64_t b = std::min(rows, a + maxRows);
-        if (!fitsRange(a, b)) {
-            std::uint64_t lo = a, hi = b;  // fitsRange(a, lo), !fitsRange(a, hi)
-            while (hi - lo > 1) {
-                const std::uint64_t mid = lo + (hi - lo) / 2;
-                (fitsRange(a, mid) ? lo : hi) = mid;
-            }
-            b = lo;
-        }
-        if (b == a)
-            throw VulkanError(std::string("one row of the ") + what + " needs more than one binding of " + mib(limit));
-        chunks.emplace_back(a, b);
-        a = b;
-    }
-    return chunks;
+    return splitRows(rows, bindingLimits(), fitsRange, what);
 }
 
 template <class Offset>
 std::vector<CsrChunk> VulkanEvaluator::Impl::splitCsr(const std::vector<Offset>& offsets,
                                                       std::vector<std::uint32_t>& relative, const char* what) const {
-    const std::uint64_t rows = offsets.size() - 1;
-    const auto ranges = split(
-        rows,
-        [&](std::uint64_t a, std::uint64_t b) {
-            return fits(4 * (std::uint64_t(offsets[b]) - std::uint64_t(offsets[a]))) && fits(4 * (b - a + 1));
-        },
-        what);
-    std::vector<CsrChunk> chunks;
-    for (const auto& [a, b] : ranges) {
-        CsrChunk c{a, b, std::uint64_t(offsets[a]), std::uint64_t(offsets[b]), relative.size()};
-        const std::uint64_t first = c.entryBegin < c.entryEnd ? c.entryBegin * 4 / alignment * alignment / 4 : 0;
-        for (std::uint64_t r = a; r <= b; ++r) relative.push_back(std::uint32_t(std::uint64_t(offsets[r]) - first));
-        chunks.push_back(c);
-    }
-    return chunks;
+    return vulkan::splitCsr(offsets, bindingLimits(), relative, what);
 }
 
 Dispatch VulkanEvaluator::Impl::dispatch(std::uint64_t rows) const {
     Dispatch d;
     d.push.rowCount = std::uint32_t(rows);
-    const std::uint64_t groups = (rows + PSUB_WORKGROUP_SIZE - 1) / PSUB_WORKGROUP_SIZE;
-    d.groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.properties.limits.maxComputeWorkGroupCount[0]));
-    d.groupsY = d.groupsX ? std::uint32_t((groups + d.groupsX - 1) / d.groupsX) : 0;
+    const WorkgroupGrid grid =
+        workgroupsFor(rows, PSUB_WORKGROUP_SIZE, context.properties.limits.maxComputeWorkGroupCount[0]);
+    d.groupsX = grid.x, d.groupsY = grid.y;
     return d;
 }
 
@@ -757,7 +726,7 @@ void VulkanEvaluator::Impl::submit(unsigned kind) {
 VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
                                  const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
                                  std::uint32_t width, const VulkanEvaluatorOptions& options)
-    : impl_(std::make_unique<Impl>(context.impl(), width)) {
+    : impl_(std::make_unique<Impl>(contextInternals(context), width)) {
     if (width == 0 || width > kMaxWidth)
         throw std::invalid_argument("VulkanEvaluator: width must be 1 to " + std::to_string(kMaxWidth));
     if (form == TableForm::Tiled) throw std::invalid_argument("VulkanEvaluator: no tiled form on Vulkan yet");

@@ -87,10 +87,10 @@ public:
     std::uint64_t validationMessageCount() const;
     std::string lastValidationMessage() const;
 
-    struct Impl;
-    Impl& impl() { return *impl_; }
+    struct Impl;  // PSub's own code reaches it through compute/vulkan/device.h only
 
 private:
+    friend Impl& contextInternals(VulkanContext& context);
     std::unique_ptr<Impl> impl_;
 };
 
