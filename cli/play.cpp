@@ -8,6 +8,7 @@
 #include "options.h"
 
 #include "psub/animation.h"
+#include "evaluators.h"
 #include "psub/evaluator.h"
 #include "psub/output.h"
 #include "psub/rules.h"
@@ -175,11 +176,12 @@ struct Playback {
     Animated& animated;
     Refinement refinement;
     std::vector<float> control, refined, normals;
-    std::unique_ptr<CpuEvaluator<float>> cpu;
 #if PSUB_HAVE_VULKAN
     std::unique_ptr<VulkanContext> context;
-    std::unique_ptr<VulkanEvaluator> gpu;
 #endif
+    std::unique_ptr<Evaluator> evaluator;  // the backend, chosen once (makeEvaluator)
+    bool readBack = false;                 // results copied to `refined` and `normals` every frame
+    bool drawsKept = false;                // the renderer draws the evaluator's device buffers
 #if PSUB_HAVE_RENDER
     std::unique_ptr<Renderer> renderer;
     Camera camera;
@@ -189,7 +191,6 @@ struct Playback {
     std::string device;
 
     bool rendering() const { return !o.renderDir.empty(); }
-    bool needHostResults() const { return rendering() || verifier.has_value(); }
 
     // One frame: its stage times go to `t`; with `record` false (the warm-up) nothing is
     // recorded, written or verified.
@@ -210,7 +211,7 @@ void Playback::checkFrame(int index) const {
             throw InputError(frame + ": posed control vertex " + std::to_string(i / 3 + 1) + " coordinate " +
                              "xyz"[i % 3] + " = " + value + " is outside the float range psub play accepts (+-1e8)");
         }
-    if (!cpu && !needHostResults()) return;
+    if (!readBack) return;
     requireFinite(refined, frame, "refined");
     requireFinite(normals, frame, "refined normal of");
 }
@@ -220,29 +221,18 @@ void Playback::frame(int index, Timings& t, bool record) {
     animated.pose(double(index) / o.animationFps, control);
     const Clock::time_point posed = Clock::now();
     double stage[kStageCount] = {msBetween(start, posed), 0, 0, 0, 0, 0};
-    if (cpu) {
-        cpu->evaluate(control, refined);
-        const Clock::time_point evaluated = Clock::now();
-        cpu->normals(refined, normals);
-        stage[Evaluate] = msBetween(posed, evaluated);
-        stage[Normals] = msBetween(evaluated, Clock::now());
-    }
-#if PSUB_HAVE_VULKAN
-    if (gpu) {
-        if (needHostResults()) gpu->evaluate(control, refined, normals);
-        else gpu->evaluateOnDevice(control, true);
-        const HostFrameTimes host = gpu->lastHostTimes();
-        const GpuFrameTimes onDevice = gpu->lastFrameTimes();
-        stage[Upload] = host.uploadMs;
-        stage[Normals] = onDevice.valid ? onDevice.normalsMs : 0.0;  // without timestamps: in evaluate
-        stage[Evaluate] = host.waitMs - stage[Normals];
-        stage[Readback] = host.readbackMs;
-    }
-#endif
+    if (readBack) evaluator->evaluate(control, refined, normals);
+    else evaluator->evaluateKept(control, true);
+    const StageTimes times = evaluator->lastTimes();
+    stage[Upload] = times.uploadMs;
+    stage[Evaluate] = times.evaluateMs;
+    stage[Normals] = times.normalsMs;
+    stage[Readback] = times.readbackMs;
 #if PSUB_HAVE_RENDER
     if (rendering()) {
         if (o.wireframe == int(Wireframe::Control)) renderer->setControlPositions(control);
-        renderer->draw(refined, normals, camera, image);
+        if (drawsKept) renderer->drawKept(camera, image);
+        else renderer->draw(refined, normals, camera, image);
         const DrawTimes d = renderer->lastTimes();
         stage[Upload] += d.uploadMs;
         stage[Render] = d.renderMs;
@@ -305,9 +295,7 @@ int prepare(Playback& p) {
     if (o.backend == Backend::Vulkan || p.rendering()) {
         try {
             p.context = std::make_unique<VulkanContext>();
-            p.device = p.context->deviceName();
-            if (o.backend == Backend::Vulkan)
-                p.gpu = std::make_unique<VulkanEvaluator>(*p.context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+            p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, p.context.get());
         } catch (const VulkanError& e) {
             std::fprintf(stderr, "psub: error: play: %s\n", e.what());
             return 1;
@@ -325,17 +313,26 @@ int prepare(Playback& p) {
         return 1;
     }
 #endif
-    if (o.backend == Backend::Cpu) {
-        p.cpu = std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
-        p.device = "CPU, " + std::to_string(p.cpu->threads()) + " threads";
-    }
+#if PSUB_HAVE_VULKAN
+    if (!p.evaluator)
+#endif
+        p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, nullptr);
+    p.device = p.evaluator->device();
+#if PSUB_HAVE_RENDER
+    // A Vulkan evaluator's results are drawn where they are, with no read-back (unless --verify
+    // reads them anyway); other backends' are uploaded by the renderer.
+    const auto* onDevice = dynamic_cast<const VulkanEvaluator*>(p.evaluator.get());
+    p.drawsKept = p.rendering() && onDevice && !p.verifier;
+#endif
+    p.readBack = p.verifier || (p.rendering() && !p.drawsKept) || p.evaluator->resultsOnHost();
 #if PSUB_HAVE_RENDER
     if (p.rendering()) {
         RenderOptions ro;
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
-        p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro,
-                                                Polygons{cage.vertexCount, cage.offsets, cage.verts});
+        const Polygons control{cage.vertexCount, cage.offsets, cage.verts};
+        p.renderer = p.drawsKept ? std::make_unique<Renderer>(*p.context, *onDevice, ro, control)
+                                 : std::make_unique<Renderer>(*p.context, polygonsOf(p.evaluator->surface()), ro, control);
         // One camera for the whole clip: the box of the control points over one period.
         Box box;
         for (int k = 0; k < 8; ++k) {

@@ -9,6 +9,7 @@
 #include "play.h"
 
 #include "psub/catmark.h"
+#include "evaluators.h"
 #include "psub/evaluator.h"
 #include "psub/presenter.h"
 #include "psub/render.h"
@@ -238,8 +239,10 @@ struct Viewer {
     Rules rules, wantedRules;
     Boundary boundary, wantedBoundary;
     bool playing, help = false, quit = false, framed = false;
-    std::unique_ptr<CpuEvaluator<float>> cpu, ccNormals;
-    std::unique_ptr<VulkanEvaluator> gpu;
+    std::unique_ptr<Evaluator> evaluator;  // P-S on the backend chosen once (makeEvaluator)
+    // The same evaluator when its device buffers can be drawn from (Vulkan): no read-back.
+    const VulkanEvaluator* drawnFromDevice = nullptr;
+    std::unique_ptr<CpuEvaluator<float>> ccNormals;
     Side ps, cc;
     std::vector<float> control;
     Image frame;
@@ -293,16 +296,13 @@ void Viewer::adopt(Built b) {
     notice.clear();
     ps.renderer.reset();  // everything that refers to the old tables goes first
     cc.renderer.reset();
-    gpu.reset();
-    cpu.reset();
+    evaluator.reset();
     ccNormals.reset();
     built = std::make_shared<Built>(std::move(b));
     levels = built->levels, rules = built->rules, boundary = built->boundary;
     const Refinement& r = built->ps;
-    if (o.backend == Backend::Vulkan)
-        gpu = std::make_unique<VulkanEvaluator>(*context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
-    else
-        cpu = std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
+    evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, context.get());
+    drawnFromDevice = dynamic_cast<const VulkanEvaluator*>(evaluator.get());
     ccNormals = std::make_unique<CpuEvaluator<float>>(built->ccIdentity, built->none, built->cc, TableForm::PerLevel);
     ps.surface = &built->ps.surface;
     cc.surface = &built->cc;
@@ -340,7 +340,8 @@ void Viewer::makeRenderers() {
     const std::uint32_t left = scheme == 2 ? std::max(1u, width / 2) : width;
     if (showsPs()) {
         ro.width = ps.width = left;
-        ps.renderer = std::make_unique<Renderer>(*context, polygonsOf(*ps.surface), ro, cagePolygons);
+        ps.renderer = drawnFromDevice ? std::make_unique<Renderer>(*context, *drawnFromDevice, ro, cagePolygons)
+                                      : std::make_unique<Renderer>(*context, polygonsOf(*ps.surface), ro, cagePolygons);
     }
     if (showsCc()) {
         ro.width = cc.width = scheme == 2 ? std::max(1u, width - left) : width;
@@ -356,21 +357,15 @@ void Viewer::evaluate() {
     animated.pose(std::fmod(seconds, animated.period), control);
     const Clock::time_point posed = Clock::now();
     stage[Deform] = msBetween(start, posed);
-    if (showsPs() && cpu) {
-        cpu->evaluate(control, ps.positions);
-        const Clock::time_point evaluated = Clock::now();
-        cpu->normals(ps.positions, ps.normals);
-        stage[Evaluate] = msBetween(posed, evaluated);
-        stage[Normals] = msBetween(evaluated, Clock::now());
-    }
-    if (showsPs() && gpu) {
-        gpu->evaluate(control, ps.positions, ps.normals);
-        const HostFrameTimes host = gpu->lastHostTimes();
-        const GpuFrameTimes onDevice = gpu->lastFrameTimes();
-        stage[Upload] = host.uploadMs;
-        stage[Normals] = onDevice.valid ? onDevice.normalsMs : 0.0;
-        stage[Evaluate] = host.waitMs - stage[Normals];
-        stage[Readback] = host.readbackMs;
+    if (showsPs()) {
+        // Results read back only where the host needs them: for the camera to frame them.
+        if (drawnFromDevice && framed) evaluator->evaluateKept(control, true);
+        else evaluator->evaluate(control, ps.positions, ps.normals);
+        const StageTimes times = evaluator->lastTimes();
+        stage[Upload] = times.uploadMs;
+        stage[Evaluate] = times.evaluateMs;
+        stage[Normals] = times.normalsMs;
+        stage[Readback] = times.readbackMs;
     }
     if (showsCc()) {  // OpenSubdiv on the CPU, whatever the backend
         const Clock::time_point ccStart = Clock::now();
@@ -405,8 +400,10 @@ void Viewer::drawFrame(bool capture) {
     for (Side* side : {&ps, &cc}) {
         if (!side->renderer) continue;
         side->renderer->setControlPositions(control);
-        side->renderer->draw(side->positions, side->normals, orbit.camera(float(side->width) / float(height)),
-                             scheme == 2 ? side->picture : frame);
+        const Camera camera = orbit.camera(float(side->width) / float(height));
+        Image& picture = scheme == 2 ? side->picture : frame;
+        if (side == &ps && drawnFromDevice) side->renderer->drawKept(camera, picture);
+        else side->renderer->draw(side->positions, side->normals, camera, picture);
         const DrawTimes d = side->renderer->lastTimes();
         stage[Upload] += d.uploadMs, stage[Render] += d.renderMs, stage[Readback] += d.readbackMs;
     }

@@ -2,12 +2,16 @@
 // every frame (positions and normals) with no allocation inside the loop.
 //
 //   psub_animate [MESH.obj] [LEVELS] [FRAMES]
-#include "psub/evaluator.h"
+#include "psub/evaluate.h"
 #include "psub/stencils.h"
+#if PSUB_HAVE_VULKAN
+#include "psub/vulkan_evaluator.h"
+#endif
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -20,10 +24,12 @@ int main(int argc, char** argv) {
         const psub::Mesh mesh = psub::readObj(path);
         const psub::CheckedMesh checked = psub::checkMesh(mesh);
         const psub::Refinement refinement = psub::refine(mesh, checked.connectivity, {levels, psub::Preprocess::Auto, false, {}});
-        psub::CpuEvaluator<float> evaluator(refinement.perLevel, refinement.factorized, refinement.surface,
-                                            psub::TableForm::PerLevel);
+        // The backend: the one line to change. On a Vulkan device (link psub::vulkan):
+        //   psub::makeVulkanEvaluator(psub::tablesOf(refinement), psub::TableForm::PerLevel)
+        const std::unique_ptr<psub::Evaluator> evaluator =
+            psub::makeCpuEvaluator(psub::tablesOf(refinement), psub::TableForm::PerLevel);
         std::vector<float> control(mesh.positions.size());
-        std::vector<float> positions(3 * std::size_t(evaluator.refinedCount())), normals(positions.size());
+        std::vector<float> positions(3 * std::size_t(evaluator->refinedCount())), normals(positions.size());
 
         // Every frame: new control points in, refined positions and normals out.
         double totalMs = 0;
@@ -35,14 +41,13 @@ int main(int argc, char** argv) {
                 control[3 * v + 2] = float(p[2]);
             }
             const auto start = std::chrono::steady_clock::now();
-            evaluator.evaluate(control, positions);
-            evaluator.normals(positions, normals);
+            evaluator->evaluate(control, positions, normals);
             totalMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
         }
         std::printf("%s: %u control points -> %u refined vertices, %zu faces; %d frames, %.3f ms per "
-                    "frame (evaluate + normals, %d threads)\n",
-                    path.c_str(), evaluator.controlCount(), evaluator.refinedCount(),
-                    refinement.surface.faceOffsets.size() - 1, frames, totalMs / frames, evaluator.threads());
+                    "frame (evaluate + normals, %s)\n",
+                    path.c_str(), evaluator->controlCount(), evaluator->refinedCount(),
+                    evaluator->surface().faceOffsets.size() - 1, frames, totalMs / frames, evaluator->device().c_str());
         std::printf("first refined vertex (%.4f, %.4f, %.4f), normal (%.3f, %.3f, %.3f)\n", positions[0],
                     positions[1], positions[2], normals[0], normals[1], normals[2]);
     } catch (const psub::InputError& e) {

@@ -236,7 +236,7 @@ void Presenter::Impl::record(Slot& slot, std::uint32_t index, std::uint32_t widt
 }
 
 Presenter::Presenter(VulkanContext& context, GLFWwindow* window, bool vsync)
-    : impl_(std::make_unique<Impl>(context.impl(), window, vsync)) {
+    : impl_(std::make_unique<Impl>(contextInternals(context), window, vsync)) {
     Impl& p = *impl_;
     const VkDevice d = p.context.device;
     VK_CHECK(glfwCreateWindowSurface(p.context.instance, window, nullptr, &p.surface));

@@ -4,6 +4,7 @@
 // recorded once: render (one render pass), readback (copy -> host barrier). A draw writes
 // buffers, submits, waits on the fence and copies the pixels out.
 #include "psub/render.h"
+#include "psub/vulkan_interop.h"
 
 #include "device.h"
 #include "resources.h"
@@ -18,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <utility>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -218,6 +220,10 @@ struct Renderer::Impl {
     VkCommandBuffer renderCommands = VK_NULL_HANDLE, readbackCommands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     DrawTimes times;
+    // The vertex buffers drawn: our own (12 bytes per vertex), or an evaluator's (drawsKept).
+    VkBuffer drawnPositions = VK_NULL_HANDLE, drawnNormals = VK_NULL_HANDLE;
+    std::uint32_t vertexStride = 12;
+    bool drawsKept = false;
 
     Impl(VulkanContext::Impl& c, const RenderOptions& o) : context(c), options(o) {}
     ~Impl();
@@ -407,8 +413,8 @@ VkPipeline Renderer::Impl::createPipeline(std::span<const std::uint32_t> vertex,
             stages[i].module = modules[i];
             stages[i].pName = "main";
         }
-        const VkVertexInputBindingDescription bindings[2] = {{0, 12, VK_VERTEX_INPUT_RATE_VERTEX},
-                                                             {1, 12, VK_VERTEX_INPUT_RATE_VERTEX}};
+        const VkVertexInputBindingDescription bindings[2] = {{0, vertexStride, VK_VERTEX_INPUT_RATE_VERTEX},
+                                                             {1, vertexStride, VK_VERTEX_INPUT_RATE_VERTEX}};
         const VkVertexInputAttributeDescription attributes[2] = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
                                                                  {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0}};
         VkPipelineVertexInputStateCreateInfo input{};
@@ -508,14 +514,14 @@ void Renderer::Impl::recordCommands() {
                             nullptr);
     const VkDeviceSize zero[2] = {0, 0};
     if (triangleIndices) {
-        const VkBuffer meshBuffers[2] = {positions.buffer, normals.buffer};
+        const VkBuffer meshBuffers[2] = {drawnPositions, drawnNormals};
         vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, meshPipeline);
         vkCmdBindVertexBuffers(renderCommands, 0, 2, meshBuffers, zero);
         vkCmdBindIndexBuffer(renderCommands, triangles.buffer, 0, VK_INDEX_TYPE_UINT32);
         vkCmdDrawIndexed(renderCommands, triangleIndices, 1, 0, 0, 0);
     }
     if (lineIndices) {
-        const VkBuffer lineSource = options.wireframe == Wireframe::Control ? controlPositions.buffer : positions.buffer;
+        const VkBuffer lineSource = options.wireframe == Wireframe::Control ? controlPositions.buffer : drawnPositions;
         vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, linePipeline);
         vkCmdBindVertexBuffers(renderCommands, 0, 1, &lineSource, zero);
         vkCmdBindIndexBuffer(renderCommands, lines.buffer, 0, VK_INDEX_TYPE_UINT32);
@@ -553,7 +559,7 @@ void Renderer::Impl::writeUniforms(const Camera& camera) {
 }
 
 Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control)
-    : impl_(std::make_unique<Impl>(context.impl(), options)) {
+    : impl_(std::make_unique<Impl>(contextInternals(context), options)) {
     Impl& r = *impl_;
     const VulkanContext::Impl& c = r.context;
     const std::uint32_t maxSize = c.properties.limits.maxImageDimension2D;
@@ -572,6 +578,7 @@ Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions
     r.samples = chooseSamples(c.properties.limits, std::max(1u, options.samples));
     r.options.samples = std::uint32_t(r.samples);
     r.createBuffers(surface, control);
+    if (!r.drawsKept) r.drawnPositions = r.positions.buffer, r.drawnNormals = r.normals.buffer;
     r.createImages();
     r.createDescriptors();
     r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, true);
@@ -580,6 +587,46 @@ Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions
 }
 
 Renderer::~Renderer() = default;
+
+// The renderer of an evaluator's kept results: built as for host vertices (its own vertex
+// buffers then unused), then its pipelines and commands made again for the evaluator's buffers
+// and their stride.
+Renderer::Renderer(VulkanContext& context, const VulkanEvaluator& source, const RenderOptions& options, Polygons control)
+    : Renderer(context, polygonsOf(source.surface()), options, control) {
+    Impl& r = *impl_;
+    if (source.deviceStride() != 4 || !source.keptNormals().buffer)
+        throw std::invalid_argument("Renderer: the evaluator must have width 3 and normals to be drawn from");
+    const VkDevice d = r.context.device;
+    vkDestroyFence(d, r.fence, nullptr);
+    vkDestroyCommandPool(d, r.commandPool, nullptr);  // frees its command buffers
+    for (VkPipeline* p : {&r.meshPipeline, &r.linePipeline}) vkDestroyPipeline(d, std::exchange(*p, VK_NULL_HANDLE), nullptr);
+    r.fence = VK_NULL_HANDLE, r.commandPool = VK_NULL_HANDLE;
+    r.drawsKept = true;
+    r.vertexStride = 4 * source.deviceStride();
+    r.drawnPositions = source.keptPositions().buffer;
+    r.drawnNormals = source.keptNormals().buffer;
+    r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, true);
+    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, false);
+    r.recordCommands();
+}
+
+void Renderer::drawKept(const Camera& camera, Image& out) {
+    Impl& r = *impl_;
+    if (!r.drawsKept) throw std::logic_error("Renderer::drawKept: this renderer draws host vertices (use draw)");
+    const auto start = Clock::now();
+    r.writeUniforms(camera);
+    const auto uploaded = Clock::now();
+    vulkan::submitAndWait(r.context, r.renderCommands, r.fence);
+    const auto rendered = Clock::now();
+    vulkan::submitAndWait(r.context, r.readbackCommands, r.fence);
+    const std::size_t bytes = 4 * std::size_t(r.options.width) * r.options.height;
+    if (out.width != r.options.width || out.height != r.options.height || out.rgba.size() != bytes) {
+        out.width = r.options.width, out.height = r.options.height;
+        out.rgba.resize(bytes);
+    }
+    std::memcpy(out.rgba.data(), r.readback.mapped, bytes);
+    r.times = {msBetween(start, uploaded), msBetween(uploaded, rendered), msBetween(rendered, Clock::now())};
+}
 
 const RenderOptions& Renderer::options() const { return impl_->options; }
 DrawTimes Renderer::lastTimes() const { return impl_->times; }

@@ -476,7 +476,7 @@ TEST_F(Vulkan, WindowOptionsEnableExtensionsAndFilterQueueFamilies) {
     };
     VulkanContext made(window);
     EXPECT_GT(calls, 0);
-    EXPECT_EQ(instanceSeen, static_cast<void*>(made.impl().instance));
+    EXPECT_EQ(instanceSeen, static_cast<void*>(contextInternals(made).instance));
     EXPECT_EQ(made.validationMessageCount(), 0u) << made.lastValidationMessage();
 }
 
@@ -514,7 +514,7 @@ TEST_F(Vulkan, CreatingAndDestroyingEvaluatorsRepeatedlyLeaksNothing) {
 
 TEST_F(Vulkan, AValidationErrorIsCounted) {
     // The debug messenger really counts: a buffer of size 0 is invalid usage.
-    VulkanContext::Impl& c = context().impl();
+    VulkanContext::Impl& c = contextInternals(context());
     const std::uint64_t before = vulkanValidationMessageTotal();
     VkBufferCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;

@@ -69,12 +69,12 @@ TEST(VulkanSubmit, AValidationMessageDuringASubmitIsReportedNotADeadlock) {
         FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
     }
     ASSERT_TRUE(context->validationEnabled());
-    SignaledFenceSubmit bad(context->impl());
+    SignaledFenceSubmit bad(contextInternals(*context));
     const std::uint64_t before = context->validationMessageCount();
 
     ::testing::internal::CaptureStderr();
     std::future<void> submitted = std::async(std::launch::async, [&] {
-        vulkan::submitAndWait(context->impl(), bad.command, bad.fence);
+        vulkan::submitAndWait(contextInternals(*context), bad.command, bad.fence);
     });
     if (submitted.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
         // The submitting thread is stuck holding a lock: nothing can be cleaned up. (stderr is

@@ -2,6 +2,8 @@
 // choice by capability with an override, one compute queue. Also VK_CHECK's reporting.
 #include "device.h"
 
+#include "psub/vulkan_interop.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
@@ -308,6 +310,7 @@ std::size_t choose(const std::vector<Candidate>& list, const std::string& select
 
 VulkanContext::Impl::~Impl() {
     pipelines.reset();
+    if (!owned) return;
     if (device) vkDestroyDevice(device, nullptr);
     if (messenger) {
         auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
@@ -384,6 +387,38 @@ VulkanContext::VulkanContext(const VulkanOptions& options) : impl_(std::make_uni
     deviceInfo.ppEnabledExtensionNames = deviceExtensions.data();
     VK_CHECK(vkCreateDevice(c.physical, &deviceInfo, nullptr, &c.device));
     vkGetDeviceQueue(c.device, c.queueFamily, 0, &c.queue);
+    c.pipelines = std::make_unique<vulkan::Pipelines>(c.device);
+}
+
+VulkanContext::VulkanContext(const VulkanDeviceHandles& adopted) : impl_(std::make_unique<Impl>()) {
+    Impl& c = *impl_;
+    c.owned = false;
+    if (!adopted.instance || !adopted.physicalDevice || !adopted.device || !adopted.queue)
+        throw VulkanError("VulkanContext: an adopted instance, physical device, device and queue must all be given");
+    c.instance = adopted.instance;
+    c.physical = adopted.physicalDevice;
+    c.device = adopted.device;
+    c.queue = adopted.queue;
+    c.queueFamily = adopted.queueFamily;
+    vkGetPhysicalDeviceProperties(c.physical, &c.properties);
+    if (c.properties.apiVersion < VK_API_VERSION_1_1)
+        throw VulkanError(std::string("VulkanContext: adopted device ") + c.properties.deviceName + " is not Vulkan 1.1");
+    std::uint32_t familyCount = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(c.physical, &familyCount, nullptr);
+    std::vector<VkQueueFamilyProperties> families(familyCount);
+    vkGetPhysicalDeviceQueueFamilyProperties(c.physical, &familyCount, families.data());
+    if (c.queueFamily >= familyCount || !(families[c.queueFamily].queueFlags & VK_QUEUE_COMPUTE_BIT))
+        throw VulkanError("VulkanContext: adopted queue family " + std::to_string(c.queueFamily) + " of " +
+                          c.properties.deviceName + " has no compute");
+    c.timestampValidBits = families[c.queueFamily].timestampValidBits;
+    vkGetPhysicalDeviceMemoryProperties(c.physical, &c.memory);
+    VkPhysicalDeviceMaintenance3Properties maintenance3{};
+    maintenance3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+    VkPhysicalDeviceProperties2 properties2{};
+    properties2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    properties2.pNext = &maintenance3;
+    vkGetPhysicalDeviceProperties2(c.physical, &properties2);
+    c.maxAllocation = maintenance3.maxMemoryAllocationSize;
     c.pipelines = std::make_unique<vulkan::Pipelines>(c.device);
 }
 

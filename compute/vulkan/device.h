@@ -25,6 +25,7 @@ struct VulkanContext::Impl {
     VkDeviceSize maxAllocation = 0;        // maintenance3 maxMemoryAllocationSize
     std::uint32_t timestampValidBits = 0;  // of the queue family; 0: no timestamps
     bool validation = false, log = false;
+    bool owned = true;  // false for an adopted device (psub/vulkan_interop.h): nothing destroyed
 
     std::atomic<std::uint64_t> messages{0};
     // Two locks, never held together: the messenger callback runs inside Vulkan calls,
@@ -42,5 +43,8 @@ struct VulkanContext::Impl {
                properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU;
     }
 };
+
+// The context's innards, for PSub's own libraries (evaluator, renderer, presenter) and tests.
+inline VulkanContext::Impl& contextInternals(VulkanContext& context) { return *context.impl_; }
 
 }  // namespace psub

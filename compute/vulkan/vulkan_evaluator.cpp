@@ -4,8 +4,10 @@
 // A frame's command buffer is recorded once per kind of frame and resubmitted: write the
 // control points, submit, wait on the fence, copy out what was asked for.
 #include "psub/vulkan_evaluator.h"
+#include "psub/vulkan_interop.h"
 
 #include "device.h"
+#include "dispatch_plan.h"
 #include "pipelines.h"
 #include "resources.h"
 
@@ -26,7 +28,8 @@ namespace {
 
 constexpr std::uint32_t kMaxWidth = 16;
 constexpr VkBufferUsageFlags kUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
-                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                      VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;  // refined positions and normals are drawn
 
 // Frame kinds: which parts a frame's command buffer holds.
 enum : unsigned {
@@ -97,10 +100,6 @@ struct Stage {
     const VertexBuffer* written = nullptr;
 };
 
-// One CSR table split into chunks whose entries fit one binding.
-struct CsrChunk {
-    std::uint64_t rowBegin, rowEnd, entryBegin, entryEnd, offsetsBegin;
-};
 
 // Table uploads: written in place where memory is host-visible, else through staging buffers
 // copied by one command buffer at the end.
@@ -196,6 +195,9 @@ struct VulkanEvaluator::Impl {
     Buffer controlUpload, refinedHost, normalsHost;  // staging only
     std::vector<Stage> stencilStages, normalStages;
     bool hasSurface = false;
+    const SurfaceTable* drawnSurface = nullptr;  // the contract's drawing order (kept by reference)
+    VkCommandBuffer deviceFrame = VK_NULL_HANDLE;  // submit(): re-recorded per call
+    VkFence deviceFence = VK_NULL_HANDLE;          // submit(): signalled when its frame is done
 
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     std::vector<VkBufferView> views;  // the texel-buffer bindings of every dispatch
@@ -214,7 +216,8 @@ struct VulkanEvaluator::Impl {
     // Construction steps.
     void makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride, bool mapped);
     Window window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin, std::uint64_t end) const;
-    bool fits(std::uint64_t bytes) const { return bytes + alignment <= limit; }
+    bool fits(std::uint64_t bytes) const { return bindingLimits().fits(bytes); }
+    BindingLimits bindingLimits() const;
     template <class Fits>
     std::vector<std::pair<std::uint64_t, std::uint64_t>> split(std::uint64_t rows, Fits fitsRange, const char* what) const;
     template <class Offset>
@@ -233,6 +236,9 @@ struct VulkanEvaluator::Impl {
     void record(VkCommandBuffer command, unsigned kind);
     void runStages(VkCommandBuffer command, const std::vector<Stage>& stages);
     void submit(unsigned kind);
+    // Caller-owned buffers (psub/vulkan_interop.h).
+    void recordDevice(VkCommandBuffer command, const VulkanDeviceBuffers& buffers);
+    void waitDeviceFrame();
 };
 
 void VulkanEvaluator::Impl::makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride,
@@ -271,55 +277,26 @@ Window VulkanEvaluator::Impl::window(const Buffer& buffer, std::uint64_t element
     return w;
 }
 
-// Greedy split of rows [0, rows) into the longest chunks [a, b) for which fitsRange(a, b).
+BindingLimits VulkanEvaluator::Impl::bindingLimits() const { return {limit, alignment, maxRows}; }
+
 template <class Fits>
 std::vector<std::pair<std::uint64_t, std::uint64_t>> VulkanEvaluator::Impl::split(std::uint64_t rows, Fits fitsRange,
                                                                                    const char* what) const {
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> chunks;
-    for (std::uint64_t a = 0; a < rows;) {
-        std::uint64_t b = std::min(rows, a + maxRows);
-        if (!fitsRange(a, b)) {
-            std::uint64_t lo = a, hi = b;  // fitsRange(a, lo), !fitsRange(a, hi)
-            while (hi - lo > 1) {
-                const std::uint64_t mid = lo + (hi - lo) / 2;
-                (fitsRange(a, mid) ? lo : hi) = mid;
-            }
-            b = lo;
-        }
-        if (b == a)
-            throw VulkanError(std::string("one row of the ") + what + " needs more than one binding of " + mib(limit));
-        chunks.emplace_back(a, b);
-        a = b;
-    }
-    return chunks;
+    return splitRows(rows, bindingLimits(), fitsRange, what);
 }
 
 template <class Offset>
 std::vector<CsrChunk> VulkanEvaluator::Impl::splitCsr(const std::vector<Offset>& offsets,
                                                       std::vector<std::uint32_t>& relative, const char* what) const {
-    const std::uint64_t rows = offsets.size() - 1;
-    const auto ranges = split(
-        rows,
-        [&](std::uint64_t a, std::uint64_t b) {
-            return fits(4 * (std::uint64_t(offsets[b]) - std::uint64_t(offsets[a]))) && fits(4 * (b - a + 1));
-        },
-        what);
-    std::vector<CsrChunk> chunks;
-    for (const auto& [a, b] : ranges) {
-        CsrChunk c{a, b, std::uint64_t(offsets[a]), std::uint64_t(offsets[b]), relative.size()};
-        const std::uint64_t first = c.entryBegin < c.entryEnd ? c.entryBegin * 4 / alignment * alignment / 4 : 0;
-        for (std::uint64_t r = a; r <= b; ++r) relative.push_back(std::uint32_t(std::uint64_t(offsets[r]) - first));
-        chunks.push_back(c);
-    }
-    return chunks;
+    return vulkan::splitCsr(offsets, bindingLimits(), relative, what);
 }
 
 Dispatch VulkanEvaluator::Impl::dispatch(std::uint64_t rows) const {
     Dispatch d;
     d.push.rowCount = std::uint32_t(rows);
-    const std::uint64_t groups = (rows + PSUB_WORKGROUP_SIZE - 1) / PSUB_WORKGROUP_SIZE;
-    d.groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.properties.limits.maxComputeWorkGroupCount[0]));
-    d.groupsY = d.groupsX ? std::uint32_t((groups + d.groupsX - 1) / d.groupsX) : 0;
+    const WorkgroupGrid grid =
+        workgroupsFor(rows, PSUB_WORKGROUP_SIZE, context.properties.limits.maxComputeWorkGroupCount[0]);
+    d.groupsX = grid.x, d.groupsY = grid.y;
     return d;
 }
 
@@ -617,6 +594,7 @@ VulkanEvaluator::Impl::~Impl() {
     if (context.device) vkDeviceWaitIdle(context.device);
     if (queries) vkDestroyQueryPool(context.device, queries, nullptr);
     if (fence) vkDestroyFence(context.device, fence, nullptr);
+    if (deviceFence) vkDestroyFence(context.device, deviceFence, nullptr);
     if (commandPool) vkDestroyCommandPool(context.device, commandPool, nullptr);
     if (descriptorPool) vkDestroyDescriptorPool(context.device, descriptorPool, nullptr);
     for (VkBufferView v : views) vkDestroyBufferView(context.device, v, nullptr);
@@ -723,6 +701,9 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
         memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
                       VK_ACCESS_HOST_READ_BIT);
     }
+    // The results drawn straight from these buffers (keptPositions, keptNormals) by later commands.
+    memoryBarrier(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_VERTEX_INPUT_BIT, VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT);
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, kQueryEnd);
     VK_CHECK(vkEndCommandBuffer(command));
 }
@@ -745,7 +726,7 @@ void VulkanEvaluator::Impl::submit(unsigned kind) {
 VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
                                  const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
                                  std::uint32_t width, const VulkanEvaluatorOptions& options)
-    : impl_(std::make_unique<Impl>(context.impl(), width)) {
+    : impl_(std::make_unique<Impl>(contextInternals(context), width)) {
     if (width == 0 || width > kMaxWidth)
         throw std::invalid_argument("VulkanEvaluator: width must be 1 to " + std::to_string(kMaxWidth));
     if (form == TableForm::Tiled) throw std::invalid_argument("VulkanEvaluator: no tiled form on Vulkan yet");
@@ -756,6 +737,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     VulkanContext::Impl& c = e.context;
     e.controls = perLevel.controlCount;
     e.refined = perLevel.refinedCount();
+    e.drawnSurface = &surface;
     e.hasSurface = width >= 3 && surface.faceOffsets.size() > 1;
     if (e.hasSurface && (surface.vertexCount != e.refined || surface.vertexOffsets.size() != std::size_t(e.refined) + 1))
         throw std::invalid_argument("VulkanEvaluator: the surface table was not built for these levels");
@@ -777,6 +759,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     VkCommandPoolCreateInfo poolInfo{};
 
     poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;  // submit() re-records its buffer
     poolInfo.queueFamilyIndex = c.queueFamily;
     VK_CHECK(vkCreateCommandPool(c.device, &poolInfo, nullptr, &e.commandPool));
     VkFenceCreateInfo fenceInfo{};
@@ -864,6 +847,148 @@ void VulkanEvaluator::evaluate(std::span<const float> control, std::span<float> 
     e.frame(control, kind, refined, normals);
 }
 
+const SurfaceTable& VulkanEvaluator::surface() const { return *impl_->drawnSurface; }
+std::string VulkanEvaluator::device() const { return impl_->context.properties.deviceName; }
+std::uint32_t VulkanEvaluator::deviceStride() const { return impl_->levels.front().stride; }
+VulkanBufferRange VulkanEvaluator::keptPositions() const { return {impl_->refinedBuffer().buffer.buffer, 0}; }
+VulkanBufferRange VulkanEvaluator::keptNormals() const { return {impl_->normals.buffer.buffer, 0}; }
+
+StageTimes VulkanEvaluator::lastTimes() const {
+    const HostFrameTimes& host = impl_->hostTimes;
+    const double normals = impl_->times.valid ? impl_->times.normalsMs : 0.0;  // without timestamps: in evaluate
+    return {host.uploadMs, host.waitMs - normals, normals, host.readbackMs};
+}
+
+// Caller-owned buffers: copies in and out of the evaluator's own buffers (whose windows and
+// descriptor sets were fixed at construction), with the barriers psub/vulkan_interop.h promises.
+void VulkanEvaluator::Impl::recordDevice(VkCommandBuffer command, const VulkanDeviceBuffers& buffers) {
+    if (!buffers.control.buffer) throw std::invalid_argument("VulkanEvaluator::record: no control buffer");
+    const bool withNormals = buffers.normals.buffer != VK_NULL_HANDLE;
+    if (withNormals && !hasSurface)
+        throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    // Every earlier write (the caller's to `control`; an earlier frame's to our buffers) and
+    // read (of our buffers) before this frame's copies and dispatches.
+    memoryBarrier(command, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_MEMORY_WRITE_BIT,
+                  VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT |
+                      VK_ACCESS_SHADER_WRITE_BIT);
+    const VkDeviceSize controlBytes = std::uint64_t(controls) * levels.front().stride * 4;
+    if (controlBytes) {
+        const VkBufferCopy region{buffers.control.offset, 0, controlBytes};
+        vkCmdCopyBuffer(command, buffers.control.buffer, levels.front().buffer.buffer, 1, &region);
+    }
+    memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+    runStages(command, stencilStages);
+    if (withNormals) {
+        vkCmdFillBuffer(command, faceNormals.buffer.buffer, (faceNormals.elements - 1) * faceNormals.stride * 4,
+                        faceNormals.stride * 4, 0);
+        memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        runStages(command, normalStages);
+    }
+    const VkDeviceSize refinedBytes = std::uint64_t(refined) * refinedBuffer().stride * 4;
+    if (buffers.refined.buffer && refinedBytes) {
+        const VkBufferCopy region{0, buffers.refined.offset, refinedBytes};
+        vkCmdCopyBuffer(command, refinedBuffer().buffer.buffer, buffers.refined.buffer, 1, &region);
+    }
+    if (withNormals && refined) {
+        const VkBufferCopy region{0, buffers.normals.offset, std::uint64_t(refined) * normals.stride * 4};
+        vkCmdCopyBuffer(command, normals.buffer.buffer, buffers.normals.buffer, 1, &region);
+    }
+    memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+                  VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_SHADER_READ_BIT |
+                      VK_ACCESS_TRANSFER_READ_BIT);
+}
+
+void VulkanEvaluator::record(VkCommandBuffer command, const VulkanDeviceBuffers& buffers) {
+    impl_->recordDevice(command, buffers);
+}
+
+void VulkanEvaluator::Impl::waitDeviceFrame() {
+    if (!deviceFence) return;
+    VK_CHECK(vkWaitForFences(context.device, 1, &deviceFence, VK_TRUE, UINT64_MAX));
+}
+
+void VulkanEvaluator::submit(const VulkanDeviceBuffers& buffers, const VulkanSubmitSync& sync) {
+    Impl& e = *impl_;
+    if (!e.deviceFrame) {
+        VkCommandBufferAllocateInfo allocate{};
+        allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        allocate.commandPool = e.commandPool;
+        allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        allocate.commandBufferCount = 1;
+        VK_CHECK(vkAllocateCommandBuffers(e.context.device, &allocate, &e.deviceFrame));
+        VkFenceCreateInfo fenceInfo{};
+        fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+        fenceInfo.flags = VK_FENCE_CREATE_SIGNALED_BIT;
+        VK_CHECK(vkCreateFence(e.context.device, &fenceInfo, nullptr, &e.deviceFence));
+    }
+    e.waitDeviceFrame();  // the previous submit() is done with the command buffer
+    VK_CHECK(vkResetFences(e.context.device, 1, &e.deviceFence));
+    VK_CHECK(vkResetCommandBuffer(e.deviceFrame, 0));
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_CHECK(vkBeginCommandBuffer(e.deviceFrame, &begin));
+    e.recordDevice(e.deviceFrame, buffers);
+    VK_CHECK(vkEndCommandBuffer(e.deviceFrame));
+    VkSubmitInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    info.waitSemaphoreCount = sync.wait ? 1 : 0;
+    info.pWaitSemaphores = &sync.wait;
+    info.pWaitDstStageMask = &sync.waitStage;
+    info.commandBufferCount = 1;
+    info.pCommandBuffers = &e.deviceFrame;
+    info.signalSemaphoreCount = sync.signal ? 1 : 0;
+    info.pSignalSemaphores = &sync.signal;
+    {
+        std::lock_guard guard(e.context.submitLock);
+        VK_CHECK(vkQueueSubmit(e.context.queue, 1, &info, e.deviceFence));
+        if (sync.fence) VK_CHECK(vkQueueSubmit(e.context.queue, 0, nullptr, sync.fence));
+    }
+}
+
+std::unique_ptr<Evaluator> makeVulkanEvaluator(VulkanContext& context, const EvaluatorTables& tables, TableForm form,
+                                               const VulkanEvaluatorOptions& options) {
+    if (form == TableForm::Tiled) throw std::invalid_argument("VulkanEvaluator: no tiled form on Vulkan yet");
+    return std::make_unique<VulkanEvaluator>(context, tables.perLevel, tables.factorized, tables.surface, form, 3,
+                                             options);
+}
+
+namespace {
+
+// A Vulkan evaluator with the context it runs on (makeVulkanEvaluator without a context).
+class OwningVulkanEvaluator final : public Evaluator {
+public:
+    OwningVulkanEvaluator(const EvaluatorTables& tables, TableForm form)
+        : context_(std::make_unique<VulkanContext>()), evaluator_(makeVulkanEvaluator(*context_, tables, form)) {}
+    std::uint32_t controlCount() const override { return evaluator_->controlCount(); }
+    std::uint32_t refinedCount() const override { return evaluator_->refinedCount(); }
+    const SurfaceTable& surface() const override { return evaluator_->surface(); }
+    std::string device() const override { return evaluator_->device(); }
+    void evaluate(std::span<const float> control, std::span<float> refined, std::span<float> normals) override {
+        evaluator_->evaluate(control, refined, normals);
+    }
+    void evaluateKept(std::span<const float> control, bool withNormals) override {
+        evaluator_->evaluateKept(control, withNormals);
+    }
+    bool resultsOnHost() const override { return false; }
+    StageTimes lastTimes() const override { return evaluator_->lastTimes(); }
+
+private:
+    std::unique_ptr<VulkanContext> context_;  // declared first: destroyed after the evaluator
+    std::unique_ptr<Evaluator> evaluator_;
+};
+
+}  // namespace
+
+std::unique_ptr<Evaluator> makeVulkanEvaluator(const EvaluatorTables& tables, TableForm form) {
+    return std::make_unique<OwningVulkanEvaluator>(tables, form);
+}
+
 void VulkanEvaluator::Impl::frame(std::span<const float> control, unsigned kind, std::span<float> refinedOut,
                                   std::span<float> normalsOut) {
     Impl& e = *this;
@@ -875,6 +1000,7 @@ void VulkanEvaluator::Impl::frame(std::span<const float> control, unsigned kind,
     using Clock = std::chrono::steady_clock;
     const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
     const Clock::time_point start = Clock::now();
+    waitDeviceFrame();  // a submit() of caller buffers still running reads our buffers
     float* upload = static_cast<float*>(e.staging ? e.controlUpload.mapped : e.levels.front().buffer.mapped);
     copyElements(upload, e.levels.front().stride, control.data(), e.width, e.controls, e.width);
     const Clock::time_point uploaded = Clock::now();
@@ -896,6 +1022,7 @@ void VulkanEvaluator::normals(std::span<const float> refined, std::span<float> n
     const std::size_t refinedFloats = std::size_t(e.refined) * e.width;
     assert(refined.size() >= refinedFloats && normals.size() >= 3 * std::size_t(e.refined));
     if (!e.hasSurface) throw std::invalid_argument("VulkanEvaluator: normals need width >= 3 and a surface table");
+    e.waitDeviceFrame();  // a submit() of caller buffers still running reads our buffers
     if (refinedFloats)
         copyElements(static_cast<float*>(e.staging ? e.refinedHost.mapped : e.refinedBuffer().buffer.mapped),
                      e.refinedBuffer().stride, refined.data(), e.width, e.refined, e.width);

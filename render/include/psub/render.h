@@ -102,6 +102,12 @@ public:
     // for Wireframe::Control (required then). Throws std::invalid_argument for inconsistent
     // polygons or options, VulkanError on device failure or limits.
     Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control = {});
+    // Draws straight from `source`'s device buffers (keptPositions, keptNormals, after
+    // source.evaluateKept(control, true)) with drawKept(): no upload, no read-back of vertices.
+    // `source` must be on `context`, have normals, and outlive the renderer; its surface() is
+    // the face list drawn.
+    Renderer(VulkanContext& context, const VulkanEvaluator& source, const RenderOptions& options,
+             Polygons control = {});
     ~Renderer();
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
@@ -115,6 +121,10 @@ public:
     // unit length) seen through `camera`, into `out` (resized only when its size differs, so
     // a caller that keeps `out` allocates once).
     void draw(std::span<const float> positions, std::span<const float> normals, const Camera& camera, Image& out);
+
+    // One frame from the evaluator given to the constructor, as it was left by its last
+    // evaluateKept(control, true) (std::logic_error for a renderer of host vertices).
+    void drawKept(const Camera& camera, Image& out);
 
     DrawTimes lastTimes() const;
     // Triangles and line segments drawn per frame.

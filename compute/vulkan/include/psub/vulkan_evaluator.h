@@ -4,9 +4,11 @@
 // a frame writes the control points through a persistently mapped buffer, runs one command
 // buffer (upload barrier, one dispatch per level, normals, fence) and reads back only what
 // was asked for. Link psub::vulkan; a CPU-only program never needs Vulkan. No Vulkan types
-// here: the device and its handles stay inside the library.
+// here: a caller that brings its own device and buffers includes psub/vulkan_interop.h.
+// It is the Vulkan backend of the evaluator contract (psub/evaluate.h).
 #pragma once
 
+#include "psub/evaluate.h"
 #include "psub/evaluator.h"
 #include "psub/tables.h"
 
@@ -18,7 +20,15 @@
 #include <string>
 #include <vector>
 
+// The one Vulkan type used below (a dispatchable handle: the same declaration as vulkan_core.h's).
+typedef struct VkCommandBuffer_T* VkCommandBuffer;
+
 namespace psub {
+
+struct VulkanDeviceHandles;  // psub/vulkan_interop.h: the caller's instance, device and queue
+struct VulkanDeviceBuffers;  // psub/vulkan_interop.h: the caller's control and result buffers
+struct VulkanSubmitSync;     // psub/vulkan_interop.h: the caller's semaphores
+struct VulkanBufferRange;    // psub/vulkan_interop.h: a VkBuffer and an offset
 
 // Any Vulkan failure: what() names the failing call, its result, file and line, or why no
 // device could be used (no driver, no device with a compute queue, an override that matches
@@ -62,6 +72,11 @@ class VulkanContext {
 public:
     // Throws VulkanError when no usable device is found.
     explicit VulkanContext(const VulkanOptions& options = {});
+    // Adopts the caller's instance, physical device, device and queue without owning them (they
+    // must outlive the context; nothing of them is destroyed). No validation messenger of its
+    // own: the caller's instance reports. Throws VulkanError when the device is not Vulkan 1.1
+    // or the queue family has no compute.
+    explicit VulkanContext(const VulkanDeviceHandles& adopted);
     ~VulkanContext();
     VulkanContext(const VulkanContext&) = delete;
     VulkanContext& operator=(const VulkanContext&) = delete;
@@ -72,10 +87,10 @@ public:
     std::uint64_t validationMessageCount() const;
     std::string lastValidationMessage() const;
 
-    struct Impl;
-    Impl& impl() { return *impl_; }
+    struct Impl;  // PSub's own code reaches it through compute/vulkan/device.h only
 
 private:
+    friend Impl& contextInternals(VulkanContext& context);
     std::unique_ptr<Impl> impl_;
 };
 
@@ -115,12 +130,13 @@ struct HostFrameTimes {
 // Out-of-range or non-finite control points: as for CpuEvaluator (psub/evaluator.h), the
 // results are NaN, infinite or zero where such points reach; never a device fault or a read
 // or write outside the buffers (the shaders index by the tables only, never by values).
-class VulkanEvaluator {
+class VulkanEvaluator final : public Evaluator {
 public:
-    // Uploads the tables (they need not outlive the evaluator). `factorized` may be empty when
+    // Uploads the tables. The contract's ownership rule holds (psub/evaluate.h): they must
+    // outlive the evaluator (surface() returns `surface`). `factorized` may be empty when
     // form is PerLevel; `surface` may be empty when normals are never asked for. Throws
-    // std::invalid_argument for inconsistent tables or width 0 (or above 16), VulkanError on
-    // device failure or buffers beyond the device's limits.
+    // std::invalid_argument for the Tiled form (not on Vulkan yet), inconsistent tables or
+    // width 0 (or above 16), VulkanError on device failure or buffers beyond the device's limits.
     VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
                     const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
                     std::uint32_t width = 3, const VulkanEvaluatorOptions& options = {});
@@ -128,20 +144,45 @@ public:
     VulkanEvaluator(const VulkanEvaluator&) = delete;
     VulkanEvaluator& operator=(const VulkanEvaluator&) = delete;
 
-    std::uint32_t controlCount() const;
-    std::uint32_t refinedCount() const;
+    std::uint32_t controlCount() const override;
+    std::uint32_t refinedCount() const override;
     std::uint32_t width() const;
+    const SurfaceTable& surface() const override;
+    std::string device() const override;
+    // Host times of the last evaluate() in the contract's stages: upload, evaluate (submit to
+    // fence, less the normals' GPU time where timestamps exist), normals (GPU time), readback.
+    StageTimes lastTimes() const override;
 
     // One frame. control: controlCount() * width() floats, packed. refined: empty (results stay
     // on the device) or refinedCount() * width() floats. normals: empty (no normals pass) or
     // 3 * refinedCount() floats, unit vertex normals of the refined surface as
     // CpuEvaluator::normals computes them (needs width() >= 3 and a surface table).
     void evaluate(std::span<const float> control, std::span<float> refined,
-                  std::span<float> normals = {});
+                  std::span<float> normals = {}) override;
+
+    // Caller-owned buffers (psub/vulkan_interop.h, which documents layouts and barriers):
+    // records one frame into `command` (a primary command buffer in the recording state, for a
+    // queue of the context's queue family): control points read from buffers.control, results
+    // written to buffers.refined and (when given) buffers.normals. No host access, no submit.
+    void record(VkCommandBuffer command, const VulkanDeviceBuffers& buffers);
+    // The same frame recorded into the evaluator's own command buffer and submitted to the
+    // context's queue, waiting for and signalling the caller's semaphores; returns without
+    // waiting (the next submit() or evaluate() waits for this one first).
+    void submit(const VulkanDeviceBuffers& buffers, const VulkanSubmitSync& sync);
+    // Floats per vertex in device buffers: 4 for width 3 (x, y, z, padding), else width().
+    std::uint32_t deviceStride() const;
+    // Where evaluateKept() leaves its results on the device (deviceStride() floats per position,
+    // 4 per normal; the buffers have vertex-buffer usage): what a renderer on the same context
+    // draws from with no read-back. Valid for the evaluator's lifetime; normals only when a
+    // surface table was given. Barriers: each frame ends with its writes visible to vertex input.
+    VulkanBufferRange keptPositions() const;
+    VulkanBufferRange keptNormals() const;
 
     // One frame whose results stay on the device (nothing read back): the stencils and, with
-    // `withNormals`, the normals pass. For timing a playback loop that draws on the device.
+    // `withNormals`, the normals pass. For a playback loop that draws on the device.
     void evaluateOnDevice(std::span<const float> control, bool withNormals);
+    void evaluateKept(std::span<const float> control, bool withNormals) override { evaluateOnDevice(control, withNormals); }
+    bool resultsOnHost() const override { return false; }
 
     // CpuEvaluator's contract: normals of the given refined positions (uploaded first).
     void normals(std::span<const float> refined, std::span<float> normals);
@@ -158,5 +199,13 @@ public:
 private:
     std::unique_ptr<Impl> impl_;
 };
+
+// Makes a Vulkan evaluator (width 3) on `context` from a refinement's tables: the contract's
+// factory (psub/evaluate.h).
+std::unique_ptr<Evaluator> makeVulkanEvaluator(VulkanContext& context, const EvaluatorTables& tables, TableForm form,
+                                               const VulkanEvaluatorOptions& options = {});
+// The same on a context of its own (VulkanContext with default options), owned by the evaluator:
+// the one-line switch from makeCpuEvaluator. Throws VulkanError when no device is usable.
+std::unique_ptr<Evaluator> makeVulkanEvaluator(const EvaluatorTables& tables, TableForm form);
 
 }  // namespace psub
