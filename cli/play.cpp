@@ -45,6 +45,9 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
 // Beyond this many refined faces playback is refused (memory; nobody plays it in real time).
 constexpr std::uint64_t kMaxFaces = 64ull << 20;
 
+// --form: the CPU evaluator's table form (PlayOptions::form).
+constexpr int kFormAuto = 0, kFormPerLevel = 1, kFormFactorized = 2, kFormTiled = 3;
+
 bool isGltf(const std::string& path) {
     const std::string extension = std::filesystem::path(path).extension().string();
     return extension == ".gltf" || extension == ".glb" || extension == ".GLTF" || extension == ".GLB";
@@ -189,6 +192,9 @@ struct Playback {
 #endif
     std::optional<Verifier> verifier;
     std::string device;
+    TableForm form = TableForm::PerLevel;  // the CPU evaluator's; Tiled writes drawing order
+    std::string formReason;                // why auto chose it, for the summary
+    std::vector<float> canonical;          // the tiled form's output in canonical order (--verify)
 
     bool rendering() const { return !o.renderDir.empty(); }
 
@@ -245,7 +251,11 @@ void Playback::frame(int index, Timings& t, bool record) {
     for (int s = 0; s < kStageCount; ++s) t.stages[std::size_t(s)].push_back(stage[s]);
     t.frames.push_back(msBetween(start, end));
     if (rendering()) draw(index, t);
-    if (verifier) verifier->check(index, control, refined);
+    if (verifier) {
+        if (form != TableForm::Tiled) return verifier->check(index, control, refined);
+        toCanonical<float>(refinement.tiled, refined, canonical, 3);
+        verifier->check(index, control, canonical);
+    }
 }
 
 // Writes the frame's picture (outside the timed frame).
@@ -275,6 +285,8 @@ void refineAnimated(Playback& p) {
     options.levels = o.levels;
     options.rules = o.rules;
     options.boundary = o.boundary;
+    options.factorized = o.backend == Backend::Cpu && o.form == kFormFactorized;
+    options.tiled = o.backend == Backend::Cpu && (o.form == kFormAuto || o.form == kFormTiled);
     p.refinement = refine(mesh, connectivity, options);
     if (o.verify) {
         Verifier v{refineTopology(mesh.faces, connectivity, preprocess, o.levels, {}, o.boundary), o.rules, {}, 0, 0};
@@ -286,6 +298,45 @@ void refineAnimated(Playback& p) {
     p.normals.resize(p.refined.size());
 }
 
+// Median milliseconds of a few evaluations of the rest pose (the auto form's quick timing).
+double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& control, std::vector<float>& out) {
+    std::vector<double> ms;
+    evaluator.evaluate(control, out);  // warm-up
+    for (int k = 0; k < 5; ++k) {
+        const Clock::time_point start = Clock::now();
+        evaluator.evaluate(control, out);
+        ms.push_back(msBetween(start, Clock::now()));
+    }
+    std::sort(ms.begin(), ms.end());
+    return ms[ms.size() / 2];
+}
+
+// The CPU table form: the forced one, or (auto) the tiled form when it has tiles and a quick
+// timing of both on the rest pose finds it faster than the per-level rows (on meshes whose
+// finest points come mostly from the fallback it is slower; docs/tiled.md).
+void chooseForm(Playback& p) {
+    const Refinement& r = p.refinement;
+    if (p.o.form != kFormAuto) {
+        p.form = p.o.form == kFormTiled ? TableForm::Tiled
+                 : p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
+        p.formReason = "forced";
+        return;
+    }
+    if (r.tiled.tileCount() == 0) {
+        p.formReason = "auto: no regular tiles";
+        return;
+    }
+    p.animated.pose(0, p.control);
+    CpuEvaluator<float> perLevel(r.perLevel, r.factorized, r.surface, TableForm::PerLevel), tiled(r.tiled);
+    const double perLevelMs = quickFrameMs(perLevel, p.control, p.refined);
+    const double tiledMs = quickFrameMs(tiled, p.control, p.refined);
+    p.form = tiledMs < perLevelMs ? TableForm::Tiled : TableForm::PerLevel;
+    char reason[160];
+    std::snprintf(reason, sizeof reason, "auto: %.0f%% of the points tiled; rest pose %.3f ms tiled, %.3f ms per-level",
+                  100.0 * r.tiled.fallbackBegin / std::max(1u, r.tiled.refinedCount), tiledMs, perLevelMs);
+    p.formReason = reason;
+}
+
 // Creates the evaluator, and the renderer with its camera; returns 1 (after a message) when
 // Vulkan is needed but unusable.
 int prepare(Playback& p) {
@@ -295,7 +346,8 @@ int prepare(Playback& p) {
     if (o.backend == Backend::Vulkan || p.rendering()) {
         try {
             p.context = std::make_unique<VulkanContext>();
-            p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, p.context.get());
+            if (o.backend == Backend::Vulkan)
+                p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, p.context.get());
         } catch (const VulkanError& e) {
             std::fprintf(stderr, "psub: error: play: %s\n", e.what());
             return 1;
@@ -313,10 +365,12 @@ int prepare(Playback& p) {
         return 1;
     }
 #endif
+    if (o.backend == Backend::Cpu) chooseForm(p);
+    if (p.form == TableForm::Tiled) p.canonical.resize(p.refined.size());
 #if PSUB_HAVE_VULKAN
     if (!p.evaluator)
 #endif
-        p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, nullptr);
+        p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, nullptr);
     p.device = p.evaluator->device();
 #if PSUB_HAVE_RENDER
     // A Vulkan evaluator's results are drawn where they are, with no read-back (unless --verify
@@ -331,6 +385,7 @@ int prepare(Playback& p) {
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
         const Polygons control{cage.vertexCount, cage.offsets, cage.verts};
+        // The evaluator's surface() indexes the order it writes (the tiled form's drawing order).
         p.renderer = p.drawsKept ? std::make_unique<Renderer>(*p.context, *onDevice, ro, control)
                                  : std::make_unique<Renderer>(*p.context, polygonsOf(p.evaluator->surface()), ro, control);
         // One camera for the whole clip: the box of the control points over one period.
@@ -373,6 +428,12 @@ void addValidation(const Playback& p, Json& json) {
 #endif
 }
 
+// The CPU evaluator's table form as --form spells it; "" on Vulkan.
+const char* formName(const Playback& p) {
+    if (p.o.backend != Backend::Cpu) return "";
+    return p.form == TableForm::Tiled ? "tiled" : p.form == TableForm::Factorized ? "factorized" : "per-level";
+}
+
 void report(const Playback& p, const Timings& t) {
     const PlayOptions& o = p.o;
     const std::uint64_t faces = p.refinement.surface.faceOffsets.size() - 1;
@@ -381,7 +442,7 @@ void report(const Playback& p, const Timings& t) {
         Json json = {{"input", o.input}, {"animation", p.animated.name}, {"levels", o.levels},
                      {"refined_faces", faces}, {"refined_vertices", p.refinement.perLevel.refinedCount()},
                      {"frames", t.frames.size()}, {"fps", framesPerSecond(t)}, {"backend", backend},
-                     {"device", p.device},
+                     {"device", p.device}, {"form", formName(p)},
                      {"render", p.rendering() ? Json{{"width", o.width}, {"height", o.height}} : Json(nullptr)},
                      {"stages", stagesJson(t)}, {"verified_frames", p.verifier ? p.verifier->frames : 0},
                      {"max_relative_error", p.verifier ? p.verifier->maxError : 0.0}};
@@ -392,6 +453,7 @@ void report(const Playback& p, const Timings& t) {
     std::printf("%s: %s, %d P-S step%s: %u control points -> %llu faces, %u vertices; %s on %s\n", o.input.c_str(),
                 p.animated.name.c_str(), o.levels, o.levels == 1 ? "" : "s", p.animated.mesh.faces.vertexCount,
                 (unsigned long long)faces, p.refinement.perLevel.refinedCount(), backend, p.device.c_str());
+    if (p.o.backend == Backend::Cpu) std::printf("Table form: %s (%s)\n", formName(p), p.formReason.c_str());
     const Summary frame = summarize(t.frames);
     std::printf("%zu frames: %.1f frames per second (frame time median %.3f ms, p95 %.3f, max %.3f)%s\n\n", t.frames.size(),
                 framesPerSecond(t), frame.median, frame.p95, frame.max,
@@ -415,6 +477,8 @@ void report(const Playback& p, const Timings& t) {
 }
 
 const std::map<std::string, int> kPlayWireframe = {{"none", 0}, {"refined", 1}, {"control", 2}};
+const std::map<std::string, int> kPlayForms = {
+    {"auto", kFormAuto}, {"per-level", kFormPerLevel}, {"factorized", kFormFactorized}, {"tiled", kFormTiled}};
 
 }  // namespace
 
@@ -430,6 +494,10 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addReal(pl, "--anim-fps", o.animationFps, 1, 10000, "animation time per frame is 1/this seconds", 30);
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
+    addChoice(pl, "--form", o.form, kPlayForms,
+              "CPU table form: auto (the tiled form when a quick timing at load finds it faster than the "
+              "per-level rows), per-level, factorized or tiled",
+              "auto");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");
     pl->add_option("--render", o.renderDir, "also draw every frame offscreen (Vulkan) into DIR/frame_NNNN.png");

@@ -36,6 +36,7 @@ struct PlayOptions {
     std::uint32_t samples = 4;  // MSAA samples per pixel of --render
     bool verify = false;        // compare each frame with the rule oracle from scratch
     bool json = false;
+    int form = 0;               // CPU table form: 0 auto, 1 per-level, 2 factorized, 3 tiled (kPlayForms)
 };
 
 // The animated control mesh (also psub view's).

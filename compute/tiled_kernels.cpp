@@ -1,10 +1,15 @@
 // The tiled form's tile kernel: a tile's gathered level-B grid refined 2t P-S steps with the
-// regular masks over implicit grids (one value per vertex at a time), then its finest lattice
-// written. Sums pair opposite neighbours, so two tiles that compute a shared point in their
+// regular masks over implicit grids (one value per vertex at a time, the last step only over
+// the tile's lattice), then its finest lattice written (inner points with streaming stores). Sums pair opposite neighbours, so two tiles that compute a shared point in their
 // own frames (rotated or reflected) produce bitwise the same value.
 #include "psub/evaluator.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <type_traits>
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
 #include <utility>
 
 namespace psub {
@@ -13,17 +18,14 @@ namespace {
 // Grid sizes of a tile whose gathered grid is g x g: each double step maps n to 2n - 9.
 std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 
-// One double step of one value per vertex: the n x n grid `c` (spacing 1) -> the quincunx
-// level (qv: the V-points of c's inner (n-2)^2 vertices, qf: the F-points of its (n-1)^2
-// cells) -> the (2n-9)^2 grid `f` of spacing 1/2, whose point (0, 0) lies at c's (2, 2).
-// `even`, `odd`: two rows of n values, for the fine rows' two kinds of points before they are
-// interleaved. Every loop runs over contiguous x, so that it vectorises.
+// The first half of a double step of one value per vertex: the n x n grid `c` (spacing 1) ->
+// the quincunx level, qv (the V-points of c's inner (n-2)^2 vertices) and qf (the F-points of
+// its (n-1)^2 cells). Every loop runs over contiguous x, so that it vectorises.
 template <class T>
-[[gnu::always_inline]] inline void doubleStepBody(const T* __restrict c, std::uint32_t n, T* __restrict qv,
-                                                  T* __restrict qf, T* __restrict f, T* __restrict even,
-                                                  T* __restrict odd) {
+[[gnu::always_inline]] inline void quincunxBody(const T* __restrict c, std::size_t n, T* __restrict qv,
+                                                T* __restrict qf) {
     const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
-    const std::size_t nv = n - 2, nf = n - 1, m = nextSize(n), half = n - 4;
+    const std::size_t nv = n - 2, nf = n - 1;
     for (std::size_t y = 1; y + 1 < n; ++y) {
         const T* down = c + (y - 1) * n;
         const T* mid = c + y * n;
@@ -39,32 +41,57 @@ template <class T>
         T* out = qf + y * nf;
         for (std::size_t x = 0; x + 1 < n; ++x) out[x] = quarter * ((down[x] + up[x + 1]) + (down[x + 1] + up[x]));
     }
+}
+
+// The second half: the fine grid of spacing 1/2 (side 2n - 9, its point (0, 0) at c's (2, 2)),
+// only its points (p, q) with p, q in [from, from + 2 count] (`from` even), written row by row
+// to `f` (rows of 2 count + 1 values). `even`, `odd`: two rows of n values, for a fine row's two
+// kinds of points before they are interleaved.
+template <class T>
+[[gnu::always_inline]] inline void fineBody(const T* __restrict qv, const T* __restrict qf, std::size_t n,
+                                            std::size_t from, std::size_t count, T* __restrict f,
+                                            T* __restrict even, T* __restrict odd) {
+    const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
+    const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2;
     // Row v_j[i - 1] = V(i, j), the V-point of c's vertex (i, j); f_j[i] = F(i, j), the F-point
     // of the cell (i, j)-(i+1, j+1). Fine point (p, q) lies at c's ((p + 4) / 2, (q + 4) / 2);
-    // entry a of a fine row's two kinds of points has i = a + 2.
+    // entry a of a fine row's two kinds of points has i = a + i0 (p = 2 a + from or one more).
     const auto V = [&](std::size_t j) { return qv + (j - 1) * nv; };
     const auto F = [&](std::size_t j) { return qf + j * nf; };
-    for (std::size_t q = 0; q < m; ++q) {
+    for (std::size_t q = from; q <= from + 2 * count; ++q) {
         const std::size_t j = q / 2 + 2;
         if (q % 2 == 0) {  // on c's row j: V-points of V(i, j) (even p), diamonds across x (odd p)
             const T *v0 = V(j), *vm = V(j - 1), *vp = V(j + 1), *f0 = F(j), *fm = F(j - 1);
-            for (std::size_t i = 2; i < half + 2; ++i)
-                even[i - 2] = quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
-                              sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + vp[i - 1]));
-            for (std::size_t i = 2; i < half + 1; ++i) odd[i - 2] = quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i]));
+            for (std::size_t i = i0; i <= i0 + count; ++i)
+                even[i - i0] = quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
+                               sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + vp[i - 1]));
+            for (std::size_t i = i0; i < i0 + count; ++i)
+                odd[i - i0] = quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i]));
         } else {  // between c's rows j and j + 1: diamonds across y (even p), V-points of F(i, j) (odd p)
             const T *v0 = V(j), *v1 = V(j + 1), *f0 = F(j), *fm = F(j - 1), *fp = F(j + 1);
-            for (std::size_t i = 2; i < half + 2; ++i) even[i - 2] = quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i]));
-            for (std::size_t i = 2; i < half + 1; ++i)
-                odd[i - 2] = quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
-                             sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
+            for (std::size_t i = i0; i <= i0 + count; ++i)
+                even[i - i0] = quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i]));
+            for (std::size_t i = i0; i < i0 + count; ++i)
+                odd[i - i0] = quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
+                              sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
         }
-        T* out = f + q * m;
-        for (std::size_t a = 0; a + 1 < half; ++a) {
+        T* out = f + (q - from) * width;
+        for (std::size_t a = 0; a < count; ++a) {
             out[2 * a] = even[a];
             out[2 * a + 1] = odd[a];
         }
-        out[m - 1] = even[half - 1];
+        out[2 * count] = even[count];
+    }
+}
+
+// Three planes of `count` values each -> count xyz triples.
+template <class T>
+[[gnu::always_inline]] inline void interleave3Body(const T* __restrict x, const T* __restrict y,
+                                                   const T* __restrict z, std::size_t count, T* __restrict out) {
+    for (std::size_t i = 0; i < count; ++i) {
+        out[3 * i] = x[i];
+        out[3 * i + 1] = y[i];
+        out[3 * i + 2] = z[i];
     }
 }
 
@@ -75,13 +102,40 @@ template <class T>
 #else
 #define PSUB_TILE_CLONES
 #endif
-PSUB_TILE_CLONES void doubleStep(const float* c, std::uint32_t n, float* qv, float* qf, float* f, float* even,
-                                 float* odd) {
-    doubleStepBody(c, n, qv, qf, f, even, odd);
+PSUB_TILE_CLONES void quincunx(const float* c, std::size_t n, float* qv, float* qf) { quincunxBody(c, n, qv, qf); }
+PSUB_TILE_CLONES void quincunx(const double* c, std::size_t n, double* qv, double* qf) { quincunxBody(c, n, qv, qf); }
+PSUB_TILE_CLONES void fine(const float* qv, const float* qf, std::size_t n, std::size_t from, std::size_t count,
+                           float* f, float* even, float* odd) {
+    fineBody(qv, qf, n, from, count, f, even, odd);
 }
-PSUB_TILE_CLONES void doubleStep(const double* c, std::uint32_t n, double* qv, double* qf, double* f, double* even,
-                                 double* odd) {
-    doubleStepBody(c, n, qv, qf, f, even, odd);
+PSUB_TILE_CLONES void fine(const double* qv, const double* qf, std::size_t n, std::size_t from, std::size_t count,
+                           double* f, double* even, double* odd) {
+    fineBody(qv, qf, n, from, count, f, even, odd);
+}
+PSUB_TILE_CLONES void interleave3(const float* x, const float* y, const float* z, std::size_t count, float* out) {
+    interleave3Body(x, y, z, count, out);
+}
+PSUB_TILE_CLONES void interleave3(const double* x, const double* y, const double* z, std::size_t count,
+                                  double* out) {
+    interleave3Body(x, y, z, count, out);
+}
+
+// `count` values from `from` to `to` with streaming (non-temporal) stores where `to` is
+// 16-byte aligned: a tile's points are written once and not read again in the frame.
+template <class T>
+void streamCopy(const T* from, std::size_t count, T* to) {
+#if defined(__SSE2__)
+    std::size_t i = 0;
+    for (; i < count && reinterpret_cast<std::uintptr_t>(to + i) % 16 != 0; ++i) to[i] = from[i];
+    if constexpr (std::is_same_v<T, float>)
+        for (; i + 4 <= count; i += 4) _mm_stream_ps(to + i, _mm_loadu_ps(from + i));
+    else if constexpr (std::is_same_v<T, double>)
+        for (; i + 2 <= count; i += 2) _mm_stream_pd(to + i, _mm_loadu_pd(from + i));
+    for (; i < count; ++i) to[i] = from[i];
+    _mm_sfence();
+#else
+    std::copy_n(from, count, to);
+#endif
 }
 
 // The largest grid side any step of any tile of `table` may use (its largest tiles).
@@ -95,18 +149,22 @@ std::uint32_t largestGrid(const TiledTable& table) {
 }  // namespace
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
-    const std::size_t n = largestGrid(table);
-    return (4 + 2 * std::size_t(width)) * n * n + 2 * n;
+    const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
+    return (4 + std::size_t(width)) * n * n + 2 * std::size_t(width) * side * side + 2 * n;
 }
 
+// Scratch: a, b, qv, qf (one value's grids), the gathered grid of each value, its finest
+// lattice (L + 1)^2 per value, the inner points as packed values, two rows.
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   T* scratch, T* lattice) {
-    const std::size_t largest = largestGrid(table), area = largest * largest;
+    const std::size_t largest = largestGrid(table), area = largest * largest,
+                      plane = std::size_t(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1);
     T *a = scratch, *b = scratch + area, *qv = scratch + 2 * area, *qf = scratch + 3 * area;
-    T* finals = scratch + 4 * area;           // the finest grid of each value, one after another
-    T* inputs = finals + width * area;        // the gathered grid of each value
-    T *even = inputs + width * area, *odd = even + largest;
+    T* inputs = scratch + 4 * area;          // the gathered grid of each value
+    T* finals = inputs + width * area;       // the finest lattice of each value
+    T* packed = finals + width * plane;      // the inner points, `width` values each
+    T *even = packed + width * plane, *odd = even + largest;
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
     const std::size_t points = std::size_t(g) * g;
@@ -121,51 +179,51 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         for (std::size_t i = 0; i < points; ++i)
             for (std::uint32_t c = 0; c < width; ++c) inputs[c * area + i] = base[std::size_t(gather[i]) * width + c];
     }
-    std::uint32_t n = g;
+    // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md); only the
+    // last step's (L + 1)^2 lattice points are computed.
+    const std::size_t r0 = (std::size_t(table.halo) << t) + 4 - (std::size_t(4) << t), side = L + 1;
     for (std::uint32_t c = 0; c < width; ++c) {
         const T* from = inputs + c * area;
-        n = g;
+        std::size_t n = g;
         for (std::uint32_t s = 0; s < t; ++s) {
-            T* to = s + 1 == t ? finals + c * area : (s % 2 == 0 ? a : b);
-            doubleStep(from, n, qv, qf, to, even, odd);
-            n = nextSize(n);
-            from = to;
+            quincunx(from, n, qv, qf);
+            if (s + 1 == t) {
+                fine(qv, qf, n, r0, L / 2, finals + c * plane, even, odd);
+            } else {
+                T* to = s % 2 == 0 ? a : b;
+                fine(qv, qf, n, 0, (nextSize(std::uint32_t(n)) - 1) / 2, to, even, odd);
+                from = to;
+            }
+            n = nextSize(std::uint32_t(n));
         }
     }
-    // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md).
-    const std::size_t r0 = (std::size_t(table.halo) << t) + 4 - (std::size_t(4) << t);
-    const auto row = [&](std::uint32_t y) { return finals + (y + r0) * n + r0; };  // value 0's row y
+    const auto at = [&](std::uint32_t c, std::uint32_t y, std::uint32_t x) { return finals[c * plane + y * side + x]; };
     if (lattice) {
         for (std::uint32_t y = 0; y <= L; ++y)
             for (std::uint32_t x = 0; x <= L; ++x)
-                for (std::uint32_t c = 0; c < width; ++c)
-                    lattice[(std::size_t(y) * (L + 1) + x) * width + c] = row(y)[c * area + x];
+                for (std::uint32_t c = 0; c < width; ++c) lattice[(std::size_t(y) * side + x) * width + c] = at(c, y, x);
         return;
     }
     const std::uint32_t begin = table.output[k];
     const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
-    T* out = refined + std::size_t(begin) * width;
+    T* out = packed;
     for (std::uint32_t y = 1; y < L; ++y) {
-        const T* from = row(y);
         if (width == 3) {
-            const T *x0 = from, *x1 = from + area, *x2 = from + 2 * area;
-            for (std::uint32_t x = 1; x < L; ++x, out += 3) {
-                out[0] = x0[x];
-                out[1] = x1[x];
-                out[2] = x2[x];
-            }
+            const T* row = finals + y * side + 1;
+            interleave3(row, row + plane, row + 2 * plane, L - 1, out);
+            out += 3 * std::size_t(L - 1);
         } else {
             for (std::uint32_t x = 1; x < L; ++x)
-                for (std::uint32_t c = 0; c < width; ++c) *out++ = from[c * area + x];
+                for (std::uint32_t c = 0; c < width; ++c) *out++ = at(c, y, x);
         }
     }
+    streamCopy(packed, std::size_t(out - packed), refined + std::size_t(begin) * width);
     const std::uint32_t* border = table.border.data() + table.borderBegin[k];
     std::size_t e = 0;
     for (std::uint32_t y = 0; y <= L; ++y)
         for (std::uint32_t x = 0; x <= L; x += (y == 0 || y == L) ? 1 : L, ++e)
             if (border[e] >= begin && border[e] < end)
-                for (std::uint32_t c = 0; c < width; ++c)
-                    refined[std::size_t(border[e]) * width + c] = row(y)[c * area + x];
+                for (std::uint32_t c = 0; c < width; ++c) refined[std::size_t(border[e]) * width + c] = at(c, y, x);
 }
 
 template <class T>

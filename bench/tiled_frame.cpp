@@ -1,0 +1,109 @@
+// psub_tiled_frame (a benchmark, not a test): per-frame time of the tiled form against the
+// per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
+// ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
+// count) measured in the same run.
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile]
+// With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf).
+#include "detail.h"
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <time.h>
+#include <vector>
+
+namespace {
+
+psub::Mesh torus(psub::Index n) {
+    psub::Mesh mesh;
+    mesh.faces.vertexCount = n * n;
+    for (psub::Index i = 0; i < n; ++i)
+        for (psub::Index j = 0; j < n; ++j) {
+            const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
+            mesh.positions.insert(mesh.positions.end(),
+                                  {(2 + std::cos(v)) * std::cos(u), (2 + std::cos(v)) * std::sin(u), std::sin(v)});
+            const psub::Index quad[4] = {i * n + j, ((i + 1) % n) * n + j, ((i + 1) % n) * n + (j + 1) % n,
+                                         i * n + (j + 1) % n};
+            mesh.faces.addFace(quad);
+        }
+    return mesh;
+}
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+// Median ms of `frames` evaluations, the control points moving before each.
+double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control, std::vector<float>& out, int frames) {
+    std::vector<double> times;
+    for (int f = 0; f < frames + 2; ++f) {
+        for (std::size_t i = 0; i < control.size(); i += 3) control[i + 2] += 1e-4f * float((f + i) % 7);
+        const auto start = std::chrono::steady_clock::now();
+        evaluator.evaluate(control, out);
+        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        if (f >= 2) times.push_back(ms);
+    }
+    return median(times);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc < 3) {
+        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS]\n");
+        return 2;
+    }
+    const std::string model = argv[1];
+    const int levels = std::stoi(argv[2]), frames = argc > 3 ? std::stoi(argv[3]) : 20,
+              rounds = argc > 4 ? std::stoi(argv[4]) : 3;
+    const psub::Mesh mesh = model.rfind("torus:", 0) == 0 ? torus(psub::Index(std::stoul(model.substr(6))))
+                                                           : psub::readObj(model);
+    const psub::CheckedMesh checked = psub::checkMesh(mesh);
+    psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
+    options.tiled = true;
+    const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
+    const psub::TiledTable& tiled = r.tiled;
+    std::printf("%s, %d P-S levels: %zu faces, %u vertices; t = %u, B = %u, %zu tiles, %.1f%% tiled\n", model.c_str(),
+                levels, r.surface.faceOffsets.size() - 1, tiled.refinedCount, tiled.doubleSteps, tiled.baseLevel,
+                tiled.tileCount(), 100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount));
+    std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
+    std::vector<float> out(3 * std::size_t(tiled.refinedCount));
+    const double bytes = 12.0 * tiled.refinedCount;
+    if (argc > 5 && std::string(argv[5]) == "profile") {
+        // The thread's CPU time per frame too: on a shared machine it counts only this work.
+        psub::CpuEvaluator<float> tiledEvaluator(tiled, 3, 1);
+        std::vector<double> cpu;
+        for (int f = 0; f < frames * rounds; ++f) {
+            timespec a{}, b{};
+            clock_gettime(CLOCK_THREAD_CPUTIME_ID, &a);
+            tiledEvaluator.evaluate(control, out);
+            clock_gettime(CLOCK_THREAD_CPUTIME_ID, &b);
+            cpu.push_back(double(b.tv_sec - a.tv_sec) * 1e3 + double(b.tv_nsec - a.tv_nsec) / 1e6);
+        }
+        std::printf("tiled, 1 thread: %.3f ms wall, %.3f ms CPU (medians); floor %.3f ms at %.1f GB/s\n",
+                    frameMs(tiledEvaluator, control, out, frames), median(cpu),
+                    bytes / (psub::bench::detail::measureTriad(1, std::size_t(1) << 25, 5) * 1e9) * 1e3,
+                    psub::bench::detail::measureTriad(1, std::size_t(1) << 25, 3));
+        return 0;
+    }
+    for (int threads : {1, 2}) {
+        const double triad = psub::bench::detail::measureTriad(threads, std::size_t(1) << 25, 5);
+        psub::CpuEvaluator<float> perLevel(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, threads);
+        psub::CpuEvaluator<float> tiledEvaluator(tiled, 3, threads);
+        std::vector<double> perLevelMs, tiledMs;
+        for (int round = 0; round < rounds; ++round) {
+            perLevelMs.push_back(frameMs(perLevel, control, out, frames));
+            tiledMs.push_back(frameMs(tiledEvaluator, control, out, frames));
+        }
+        const double floorMs = bytes / (triad * 1e9) * 1e3, p = median(perLevelMs), t = median(tiledMs);
+        std::printf("threads %d: triad %.1f GB/s, floor %.3f ms; per-level %.3f ms (%.1fx floor); tiled %.3f ms "
+                    "(%.1fx floor), %.2fx faster than per-level\n",
+                    threads, triad, floorMs, p, p / floorMs, t, t / floorMs, p / t);
+    }
+    return 0;
+}

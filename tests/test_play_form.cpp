@@ -1,0 +1,104 @@
+// psub play --form, run as a program: each forced CPU table form plays frames equal to the rule
+// oracle (--verify; the tiled form's drawing order is mapped back to canonical order), auto
+// names its choice and why, and a mesh without regular tiles stays on the per-level rows.
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <numbers>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Outcome {
+    int status = -1;
+    std::string out, err;
+};
+
+std::string readFile(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+Outcome psub(const std::string& args) {
+    const std::string base = testing::TempDir() + "/psub-play-form-" + std::to_string(::getpid());
+    const std::string command =
+        "'" PSUB_EXE "' " + args + " >'" + base + ".out' 2>'" + base + ".err' </dev/null";
+    const int raw = std::system(command.c_str());
+    Outcome run;
+    if (raw != -1 && WIFEXITED(raw)) run.status = WEXITSTATUS(raw);
+    run.out = readFile(base + ".out");
+    run.err = readFile(base + ".err");
+    fs::remove(base + ".out");
+    fs::remove(base + ".err");
+    return run;
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// An n x n quad torus as an OBJ file (every vertex regular: the tiled form tiles it).
+std::string writeTorus(int n) {
+    const std::string path = testing::TempDir() + "/psub-play-form-torus-" + std::to_string(::getpid()) + ".obj";
+    std::ofstream out(path);
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const double u = 2 * std::numbers::pi * i / n, v = 2 * std::numbers::pi * j / n;
+            out << "v " << (3 + std::cos(v)) * std::cos(u) << ' ' << (3 + std::cos(v)) * std::sin(u) << ' '
+                << std::sin(v) << '\n';
+        }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const int i1 = (i + 1) % n, j1 = (j + 1) % n;
+            out << "f " << j * n + i + 1 << ' ' << j * n + i1 + 1 << ' ' << j1 * n + i1 + 1 << ' ' << j1 * n + i + 1
+                << '\n';
+        }
+    return path;
+}
+
+TEST(PlayForm, EachForcedFormPlaysTheOracleFrames) {
+    const std::string torus = writeTorus(24);
+    for (const std::string form : {"tiled", "per-level", "factorized"}) {
+        const Outcome run = psub("play '" + torus + "' --levels 3 --frames 3 --anim twist --verify --form " + form);
+        EXPECT_EQ(run.status, 0) << form << ": " << run.err;
+        EXPECT_TRUE(contains(run.out, "Table form: " + form + " (forced)")) << run.out;
+        EXPECT_TRUE(contains(run.out, "Verified: all 3 frames")) << run.out;
+    }
+    fs::remove(torus);
+}
+
+TEST(PlayForm, AutoTimesBothFormsOnATiledMesh) {
+    const std::string torus = writeTorus(24);
+    const Outcome run = psub("play '" + torus + "' --levels 4 --frames 2 --verify");
+    EXPECT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(contains(run.out, "(auto: 100% of the points tiled; rest pose ")) << run.out;
+    EXPECT_TRUE(contains(run.out, "Table form: tiled (auto") || contains(run.out, "Table form: per-level (auto"))
+        << run.out;
+    const Outcome json = psub("play '" + torus + "' --levels 2 --frames 2 --json --form tiled");
+    EXPECT_EQ(json.status, 0) << json.err;
+    EXPECT_TRUE(contains(json.out, "\"form\":\"tiled\"") || contains(json.out, "\"form\": \"tiled\"")) << json.out;
+    fs::remove(torus);
+}
+
+TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
+    const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --levels 3 --frames 2");
+    EXPECT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles)")) << run.out;
+}
+
+TEST(PlayForm, AnUnknownFormIsAUsageError) {
+    const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --form fastest");
+    EXPECT_EQ(run.status, 2);
+    EXPECT_TRUE(contains(run.err, "--form")) << run.err;
+}
+
+}  // namespace
