@@ -88,6 +88,11 @@ std::optional<std::vector<double>> evaluateOnVulkan(const Refinement& r, const s
 
 int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const Faces& faces = loaded.mesh.faces;
+    if (!loaded.mesh.uv.empty() && o.boundary == Boundary::Smooth) {
+        std::fprintf(stderr, "psub subdivide: --boundary smooth does not refine texture coordinates, and %s has "
+                     "them (vt); use --boundary paper\n", o.input.c_str());
+        return 2;
+    }
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, o.preprocess,
                                                loaded.mesh.source);
     const int steps = o.levels + (preprocess ? 1 : 0);
@@ -97,6 +102,7 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     RefineOptions options{o.levels, o.preprocess, false, {}};
     options.rules = o.rules;
     options.boundary = o.boundary;
+    options.uvLinear = o.uvLinear;
     if (progressWanted())
         options.onLevel = [&](int level, double seconds) {
             std::fprintf(stderr, "psub: level %d/%d topology in %.1f ms\n", level, steps, seconds * 1e3);
@@ -127,7 +133,17 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
                              preprocessName(preprocess) + (o.rules != Rules::Paper ? std::string(", ") + rulesName(o.rules) + " rules" : "") +
                              (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
     requireFinite(positions, o.input, "refined");
-    writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
+    if (refinement.uv.empty()) {
+        writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
+    } else {
+        const FaceVaryingTable& uv = refinement.uv;
+        std::vector<double> values(std::size_t(uv.width) * uv.valueCount());
+        evaluateFaceVarying<double>(uv, loaded.mesh.uv.values, values);
+        const std::string uvWhat = what + ", texture coordinates: " + uvLinearName(o.uvLinear) +
+                                   " (docs/face-varying.md: faces straddling a seam are split in two)";
+        writeOutput(o.output, formatObjWithUv(positions, values, uv.width, uv.faceOffsets, uv.faceVerts,
+                                              uv.faceValues, header(o.input, uvWhat)));
+    }
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
     return 0;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "psub/rules.h"
+#include "psub/stencils.h"
 #include "psub/topology.h"
 
 #include <chrono>
@@ -27,6 +28,7 @@ struct SubdivideOptions {
     Boundary boundary = Boundary::Paper;
     Backend backend = Backend::Cpu;
     std::uint64_t maxMemory = 0;  // bytes; 0 = default (3/4 of physical memory)
+    UvLinear uvLinear = UvLinear::Boundaries;  // texture coordinates (docs/face-varying.md)
 };
 
 struct StatsOptions {

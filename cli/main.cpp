@@ -126,6 +126,10 @@ int main(int argc, char** argv) {
               "usable, else the CPU with a message)",
               "cpu");
     addMaxMemory(sub, subdivide.maxMemory);
+    addChoice(sub, "--uv-linear", subdivide.uvLinear, kUvLinearNames,
+              "texture coordinates (vt), docs/face-varying.md: boundaries: P-S rules in the interior, seam "
+              "and boundary polylines kept; all: linear everywhere (--scheme ps only)",
+              "boundaries");
     sub->footer("Example:\n  psub subdivide data/cow.obj -o cow_ps4.obj --levels 4\n"
                 "  psub subdivide data/cow.obj -o cow_cc2.obj --levels 2 --scheme cc\n"
                 "  psub subdivide data/grid4x4.obj -o grid_smooth.obj --levels 4 --boundary smooth\n"
@@ -310,6 +314,10 @@ int main(int argc, char** argv) {
     }
     if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--boundary")) {
         std::fprintf(stderr, "psub subdivide: --boundary applies to --scheme ps only (Catmull-Clark's is smooth)\n");
+        return 2;
+    }
+    if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--uv-linear")) {
+        std::fprintf(stderr, "psub subdivide: --uv-linear applies to --scheme ps only\n");
         return 2;
     }
     if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--backend")) {

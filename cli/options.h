@@ -21,6 +21,7 @@ namespace psub::cli {
 inline const std::map<std::string, Scheme> kSchemeNames = {{"ps", Scheme::PS}, {"cc", Scheme::CatmullClark}};
 inline const std::map<std::string, Rules> kRulesNames = {{"paper", Rules::Paper}, {"robust", Rules::Robust}, {"shape", Rules::Shape}};
 inline const std::map<std::string, Boundary> kBoundaryNames = {{"paper", Boundary::Paper}, {"smooth", Boundary::Smooth}};
+inline const std::map<std::string, UvLinear> kUvLinearNames = {{"boundaries", UvLinear::Boundaries}, {"all", UvLinear::All}};
 // Where the stencils run, for commands that need a definite answer (no "auto").
 inline const std::map<std::string, Backend> kCpuOrVulkan = {{"cpu", Backend::Cpu}, {"vulkan", Backend::Vulkan}};
 

@@ -2,6 +2,7 @@
 #include "psub/stencils.h"
 
 #include "psub/rules.h"
+#include "step_rows.h"
 
 #include <omp.h>
 
@@ -42,15 +43,20 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
 // The rows of one step (parent level -> child level): each child vertex's kind and shape, and
 // its sources written in place. Old vertex v gives row v, face f gives row oldVertices + f,
 // and, when the step splits the boundary, boundary edge i gives row oldVertices + faces + i.
+// `paired` retains every old vertex (the paired method; a face-varying channel's "all"); a
+// face marked in `seamFaces` (a face-varying seam triangle) gets the midpoint of its first two
+// corners (docs/face-varying.md).
 struct StepRows {
     const Faces& faces;
     const Connectivity& c;
     bool paired;
     bool splitBoundary;
+    std::span<const std::uint8_t> seamFaces;
     std::vector<Index> boundaryHalfedges;  // split steps: per boundary edge, in edge order
 
-    StepRows(const Faces& f, const Connectivity& connectivity, bool isPaired, bool split)
-        : faces(f), c(connectivity), paired(isPaired), splitBoundary(split) {
+    StepRows(const Faces& f, const Connectivity& connectivity, bool isPaired, bool split,
+             std::span<const std::uint8_t> seams = {})
+        : faces(f), c(connectivity), paired(isPaired), splitBoundary(split), seamFaces(seams) {
         if (!split) return;
         boundaryHalfedges.reserve(c.boundaryEdgeCount);
         for (Index h : c.edgeHalfedge)
@@ -61,9 +67,12 @@ struct StepRows {
     std::uint32_t firstEdgePoint() const { return faces.vertexCount + faces.faceCount(); }
     std::uint32_t childCount() const { return firstEdgePoint() + std::uint32_t(boundaryHalfedges.size()); }
     bool curveVertex(std::uint32_t d) const { return splitBoundary && c.kind[d] == VertexKind::Boundary; }
+    bool seamPoint(std::uint32_t d) const {
+        return d >= oldVertices() && !seamFaces.empty() && seamFaces[d - oldVertices()] != 0;
+    }
 
     GroupKey shape(std::uint32_t d) const {
-        if (d >= firstEdgePoint()) return {RowKind::BoundaryEdge, 1, 0};
+        if (d >= firstEdgePoint() || seamPoint(d)) return {RowKind::BoundaryEdge, 1, 0};
         if (d >= oldVertices()) {
             const std::uint32_t size = faces.faceSize(d - oldVertices());
             return {size == 4 ? RowKind::FaceQuad : size == 3 ? RowKind::FaceTriangle : RowKind::FacePolygon,
@@ -86,6 +95,11 @@ struct StepRows {
             *out++ = faces.verts[c.next[h]];
             return;
         }
+        if (seamPoint(d)) {
+            *out++ = faces.verts[faces.offsets[d - oldVertices()]];
+            *out++ = faces.verts[faces.offsets[d - oldVertices()] + 1];
+            return;
+        }
         if (d >= oldVertices()) {
             for (Index v : faces.face(d - oldVertices())) *out++ = v;
             return;
@@ -104,9 +118,12 @@ struct StepRows {
     }
 };
 
+}  // namespace
+
 // Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
-void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool splitBoundary, Rules rules) {
-    const StepRows step(parent.faces, parent.connectivity, paired, splitBoundary);
+void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity& connectivity, bool paired,
+                    bool splitBoundary, std::span<const std::uint8_t> seamFaces, Rules rules) {
+    const StepRows step(faces, connectivity, paired, splitBoundary, seamFaces);
     const std::uint32_t childCount = step.childCount();
 
     // Pass 1: the shape of every row; groups numbered as first met, with a one-entry cache
@@ -161,6 +178,12 @@ void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool sp
         step.sources(d, &table.indices[g.indexBegin + r * g.width]);
     }
     table.levels.push_back(level);
+}
+
+namespace {
+
+void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool splitBoundary, Rules rules) {
+    appendStepRows(table, parent.faces, parent.connectivity, paired, splitBoundary, {}, rules);
 }
 
 }  // namespace
@@ -303,9 +326,25 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         if (options.tiled && k == int(plan.baseLevel)) base = parent;
     };
     planTiles(0);
+    // The face-varying channel follows the positions level by level (docs/face-varying.md).
+    const bool uv = !mesh.uv.empty() && options.boundary == Boundary::Paper;
+    FaceVaryingLevel uvLevel;
+    if (uv) {
+        const auto start = Clock::now();
+        out.uv.width = mesh.uv.width;
+        out.uv.perLevel.controlCount = mesh.uv.valueCount();
+        uvLevel = faceVaryingBase(mesh, connectivity);
+        out.uvMs += ms(start);
+    }
     for (int k = 1; k <= steps; ++k) {
         auto start = Clock::now();
         const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));
+        if (uv) {
+            appendFaceVaryingLevel(out.uv.perLevel, uvLevel, out.preprocessed && k == 1, options.uvLinear, options.rules);
+            uvLevel = refineFaceVarying(uvLevel, parent);
+            out.uvMs += ms(start);
+            start = Clock::now();
+        }
         Level child = refineLevel(parent, split);
         const double topologyMs = ms(start);
         out.topologyMs += topologyMs;
@@ -321,6 +360,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         out.tiled = buildTiledTable(out.perLevel, base, parent, plan);
         out.tiledMs = ms(start);
     }
+    if (uv) setFaceVaryingFaces(out.uv, uvLevel);
     auto start = Clock::now();
     out.surface = buildSurfaceTable(std::move(parent.faces));
     out.perLevelMs += ms(start);

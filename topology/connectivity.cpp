@@ -179,6 +179,7 @@ CheckedMesh checkMesh(const Mesh& mesh) {
             throw InputError(describeVertex(source, Index(i / 3)) + ": coordinate " +
                              "xyz"[i % 3] + " is not finite");
     validateFaces(mesh.faces, source);
+    checkFaceVarying(mesh);
 
     CheckedMesh checked{buildConnectivity(mesh.faces, source), {}};
     Index unused = 0, firstUnused = kNoIndex;

@@ -78,7 +78,8 @@ public:
         std::string_view keyword = nextToken(line);
         if (keyword == "v") return vertex(line, lineNo);
         if (keyword == "f") return face(line, lineNo);
-        static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "g", "o", "s",
+        if (keyword == "vt") return textureCoordinate(line, lineNo);
+        static const std::set<std::string_view> ignored = {"vn", "vp", "g", "o", "s",
                                                            "usemtl", "mtllib", "l"};
         if (ignored.count(keyword)) return;
         if (warnings_ && unknown_.insert(std::string(keyword)).second)
@@ -96,6 +97,7 @@ public:
                                      std::to_string(std::uint64_t(v) + 1) +
                                      " is out of range (the file has " +
                                      std::to_string(vertexCount) + " vertices)");
+        finishUv();
         return std::move(mesh_);
     }
 
@@ -130,6 +132,68 @@ private:
         mesh_.source.vertexLine.push_back(lineNo);
     }
 
+    // A `vt` statement: u [v [w]]; u and v are kept (v defaults to 0), w is ignored.
+    void textureCoordinate(std::string_view rest, std::uint32_t lineNo) {
+        const std::size_t t = mesh_.uv.values.size() / 2;
+        const std::string where = at(name_, lineNo) + "texture coordinate " + std::to_string(t + 1) + ": ";
+        double values[3] = {};
+        std::size_t count = 0;
+        for (std::string_view token = nextToken(rest); !token.empty(); token = nextToken(rest)) {
+            if (count == 3) throw InputError(where + "unexpected '" + shown(token) + "' after 3 numbers (u v w)");
+            const NumberRead read = readNumber(token, values[count]);
+            if (read == NumberRead::OutOfRange) throw InputError(where + "number out of range: '" + shown(token) + "'");
+            if (read == NumberRead::NotANumber) throw InputError(where + "expected a number, got '" + shown(token) + "'");
+            if (!std::isfinite(values[count])) throw InputError(where + "uvw"[count] + std::string(" is not finite"));
+            ++count;
+        }
+        if (count == 0) throw InputError(where + "expected u [v [w]], got nothing");
+        mesh_.uv.values.push_back(values[0]);
+        mesh_.uv.values.push_back(values[1]);
+        mesh_.uv.valueLine.push_back(lineNo);
+    }
+
+    // Checks the `vt` indices of faces that name them; drops the channel when some faces do not.
+    void finishUv() {
+        FaceVarying& uv = mesh_.uv;
+        const Index count = uv.valueCount();
+        if (firstFaceWithoutUv_ != kNoIndex && !uv.corners.empty()) {
+            if (warnings_)
+                warnings_->push_back(describeFace(mesh_.source, firstFaceWithoutUv_) +
+                                     " names no texture coordinates while other faces do; ignoring all texture coordinates");
+            uv.corners.clear();
+        }
+        for (Index f = 0; f < mesh_.faces.faceCount() && !uv.corners.empty(); ++f)
+            for (Index h = mesh_.faces.offsets[f]; h < mesh_.faces.offsets[f + 1]; ++h)
+                if (uv.corners[h] >= count)
+                    throw InputError(describeFace(mesh_.source, f) + ": texture-coordinate index " +
+                                     std::to_string(std::uint64_t(uv.corners[h]) + 1) +
+                                     " is out of range (the file has " + std::to_string(count) +
+                                     " texture coordinates)");
+        if (uv.corners.empty()) {
+            uv.values.clear();
+            uv.valueLine.clear();
+        }
+    }
+
+    // The `vt` part of a face entry (after the first '/'), resolved, or kNoIndex when absent.
+    Index uvReference(std::string_view rest, Index f, std::uint32_t lineNo) {
+        if (rest.empty() || rest.front() == '/') return kNoIndex;  // "i" or "i//n"
+        const std::string where = at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) + ": ";
+        std::int64_t index = 0;
+        auto [end, ec] = std::from_chars(rest.data(), rest.data() + rest.size(), index);
+        if (ec != std::errc() || (end != rest.data() + rest.size() && *end != '/'))
+            throw InputError(where + "bad texture-coordinate reference '" + shown(rest) + "'");
+        const std::int64_t seen = std::int64_t(mesh_.uv.values.size() / 2);
+        if (index == 0) throw InputError(where + "texture-coordinate index 0 (OBJ indices start at 1)");
+        if (index < 0 && seen + index < 0)
+            throw InputError(where + "relative texture-coordinate index " + std::to_string(index) +
+                             " points before the first texture coordinate (" + std::to_string(seen) + " so far)");
+        const std::int64_t resolved = index < 0 ? seen + index : index - 1;
+        if (resolved >= std::int64_t(kNoIndex))
+            throw InputError(where + "texture-coordinate index " + shown(rest) + " is too large");
+        return Index(resolved);
+    }
+
     void face(std::string_view rest, std::uint32_t lineNo) {
         const std::int64_t seen = std::int64_t(mesh_.positions.size() / 3);
         const Index f = mesh_.faces.faceCount();
@@ -154,15 +218,25 @@ private:
                 throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
                                  ": vertex index " + shown(token) + " is too large");
             corners_.push_back(Index(resolved));
+            const std::size_t slash = token.find('/');
+            const Index uvIndex = slash == std::string_view::npos ? kNoIndex : uvReference(token.substr(slash + 1), f, lineNo);
+            if (corners_.size() > 1 && (uvIndex == kNoIndex) != (uvCorners_.empty()))
+                throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
+                                 ": some corners name a texture coordinate and some do not");
+            if (uvIndex != kNoIndex) uvCorners_.push_back(uvIndex);
         }
         mesh_.faces.addFace(corners_);
+        if (uvCorners_.empty() && firstFaceWithoutUv_ == kNoIndex) firstFaceWithoutUv_ = f;
+        mesh_.uv.corners.insert(mesh_.uv.corners.end(), uvCorners_.begin(), uvCorners_.end());
+        uvCorners_.clear();
         mesh_.source.faceLine.push_back(lineNo);
     }
 
     const std::string& name_;
     std::vector<std::string>* warnings_;
     std::set<std::string> unknown_;
-    std::vector<Index> corners_;
+    std::vector<Index> corners_, uvCorners_;
+    Index firstFaceWithoutUv_ = kNoIndex;
     Mesh mesh_;
 };
 
@@ -229,10 +303,10 @@ Mesh readObj(const std::string& path, std::vector<std::string>* warnings) {
     return parseObj(text, path, warnings);
 }
 
-std::string formatObj(const Faces& faces, std::span<const double> positions,
-                      std::string_view header) {
-    std::string out;
-    out.reserve(positions.size() * 12 + faces.verts.size() * 8 + header.size() + 64);
+namespace {
+
+// `# ` header lines, then one `v` line per 3 numbers of `positions`.
+void appendHeaderAndVertices(std::string& out, std::string_view header, std::span<const double> positions) {
     while (!header.empty()) {
         const std::size_t eol = header.find('\n');
         out += "# ";
@@ -250,6 +324,52 @@ std::string formatObj(const Faces& faces, std::span<const double> positions,
         }
         out += '\n';
     }
+}
+
+void appendIndex(std::string& out, std::uint32_t index) {
+    char buf[16];
+    char* end = std::to_chars(buf, buf + sizeof buf, std::uint64_t(index) + 1).ptr;
+    out.append(buf, end);
+}
+
+}  // namespace
+
+std::string formatObjWithUv(std::span<const double> positions, std::span<const double> values,
+                            std::uint32_t width, std::span<const std::uint32_t> faceOffsets,
+                            std::span<const std::uint32_t> faceVerts,
+                            std::span<const std::uint32_t> faceValues, std::string_view header) {
+    std::string out;
+    out.reserve(positions.size() * 12 + values.size() * 12 + faceVerts.size() * 16 + header.size() + 64);
+    appendHeaderAndVertices(out, header, positions);
+    char buf[64];
+    for (std::size_t i = 0; width > 0 && i + width <= values.size(); i += width) {
+        out += "vt";
+        for (std::uint32_t j = 0; j < 2; ++j) {
+            buf[0] = ' ';
+            char* end = std::to_chars(buf + 1, buf + sizeof buf, j < width ? values[i + j] : 0.0).ptr;
+            out.append(buf, end);
+        }
+        out += '\n';
+    }
+    for (std::size_t f = 0; f + 1 < faceOffsets.size(); ++f) {
+        out += 'f';
+        for (std::uint32_t c = faceOffsets[f]; c < faceOffsets[f + 1]; ++c) {
+            out += ' ';
+            appendIndex(out, faceVerts[c]);
+            out += '/';
+            appendIndex(out, faceValues[c]);
+        }
+        out += '\n';
+    }
+    return out;
+}
+
+std::string formatObj(const Faces& faces, std::span<const double> positions,
+                      std::string_view header) {
+    std::string out;
+    out.reserve(positions.size() * 12 + faces.verts.size() * 8 + header.size() + 64);
+    appendHeaderAndVertices(out, header, positions);
+    char buf[64];
     for (Index f = 0; f < faces.faceCount(); ++f) {
         out += 'f';
         for (Index v : faces.face(f)) {

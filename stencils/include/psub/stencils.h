@@ -43,6 +43,27 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
 TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan);
 TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel);
 
+// How a face-varying channel is refined (docs/face-varying.md), like OpenSubdiv's
+// FVarLinearInterpolation. Boundaries (the default): the P-S rules in the interior, seam and
+// boundary polylines kept. All: linear everywhere (every value kept, faces averaged).
+enum class UvLinear { Boundaries, All };
+
+// "boundaries" or "all".
+const char* uvLinearName(UvLinear linear);
+
+// The channel's rows of one step from `level` (the paired method's when `paired`), appended
+// to `table` as one StencilLevel over face-varying vertices.
+void appendFaceVaryingLevel(PerLevelTable& table, const FaceVaryingLevel& level, bool paired,
+                            UvLinear linear, Rules rules = Rules::Paper);
+
+// The finest level's faces of the channel, with the position vertex and value of each corner.
+void setFaceVaryingFaces(FaceVaryingTable& table, const FaceVaryingLevel& finest);
+
+// The whole channel of a checked mesh with UVs for `hierarchy` (built from that mesh, with
+// Boundary::Paper): what refine() puts in Refinement::uv.
+FaceVaryingTable buildFaceVaryingTable(const Hierarchy& hierarchy, const Mesh& mesh,
+                                       UvLinear linear = UvLinear::Boundaries, Rules rules = Rules::Paper);
+
 struct RefineOptions {
     int levels = 2;                         // P-S steps after any preprocessing
     Preprocess preprocess = Preprocess::Auto;
@@ -51,6 +72,7 @@ struct RefineOptions {
     Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
     Boundary boundary = Boundary::Paper;    // Smooth: beyond the paper (psub/topology.h)
     bool tiled = false;                     // also build the tiled form (psub/tiled.h)
+    UvLinear uvLinear = UvLinear::Boundaries;  // the face-varying channel, when the mesh has one
 };
 
 // Everything the per-frame loop needs, and nothing of the topology.
@@ -63,10 +85,14 @@ struct Refinement {
     TiledTable tiled;            // empty unless RefineOptions::tiled
     FaceVaryingTable uv;         // empty unless the mesh has UVs (Mesh::uv)
     double topologyMs = 0, perLevelMs = 0, factorizedMs = 0, tiledMs = 0;
+    double uvMs = 0;             // the face-varying channel's topology and tables
 };
 
-// Refines a checked mesh (see checkMesh) and builds its tables. Throws InputError when
-// preprocessing is needed but Preprocess::Never was asked for.
+// Refines a checked mesh (see checkMesh) and builds its tables, with the face-varying
+// channel's (Refinement::uv) when the mesh has UVs and the boundary is Boundary::Paper (with
+// Boundary::Smooth the channel is not refined and Refinement::uv stays empty:
+// docs/face-varying.md). Throws InputError when preprocessing is needed but Preprocess::Never
+// was asked for.
 Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const RefineOptions& options);
 
 }  // namespace psub

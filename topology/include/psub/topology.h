@@ -105,11 +105,14 @@ void requireFinite(std::span<const float> xyz, const std::string& input, const s
 // ---------------------------------------------------------------------------------------
 // OBJ I/O
 
-// Reads `v` and `f` statements (face entries i, i/t, i/t/n, i//n, negative indices),
-// ignores vt vn vp g o s usemtl mtllib l and comments, accepts CRLF and `\` continuation
+// Reads `v`, `vt` (u v [w]; w ignored) and `f` statements (face entries i, i/t, i/t/n, i//n,
+// negative indices) into positions, faces and Mesh::uv; ignores vn vp g o s usemtl mtllib l
+// and comments, accepts CRLF and `\` continuation
 // lines. Throws InputError naming file and line for unreadable files, malformed numbers,
-// non-finite coordinates and indices that are zero or out of range. Unknown statements are
-// reported once each in `warnings` (if given) and skipped.
+// non-finite coordinates or texture coordinates and indices (v or vt) that are zero or out of
+// range. A file where only some faces name `vt` loses the channel, with a warning naming the
+// first face without one. Unknown statements are reported once each in `warnings` (if given)
+// and skipped.
 Mesh readObj(const std::string& path, std::vector<std::string>* warnings = nullptr);
 Mesh parseObj(std::string_view text, const std::string& name,
               std::vector<std::string>* warnings = nullptr);
@@ -117,6 +120,14 @@ Mesh parseObj(std::string_view text, const std::string& name,
 // Serialises a mesh as OBJ text: `header` lines as comments, then `v` and `f` lines.
 std::string formatObj(const Faces& faces, std::span<const double> positions,
                       std::string_view header = {});
+
+// The same with a face-varying channel: `v` lines, `vt` lines (the first two numbers of each
+// `width`-wide value), then faces `f v/vt` whose corners name position vertex faceVerts[i]
+// and value faceValues[i], faces in compressed rows faceOffsets.
+std::string formatObjWithUv(std::span<const double> positions, std::span<const double> values,
+                            std::uint32_t width, std::span<const std::uint32_t> faceOffsets,
+                            std::span<const std::uint32_t> faceVerts,
+                            std::span<const std::uint32_t> faceValues, std::string_view header = {});
 
 // ---------------------------------------------------------------------------------------
 // Connectivity
@@ -240,6 +251,39 @@ struct Hierarchy {
 Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess, int steps,
                          const std::function<void(int level, double seconds)>& onLevel = {},
                          Boundary boundary = Boundary::Paper);
+
+// ---------------------------------------------------------------------------------------
+// Face-varying topology (docs/face-varying.md)
+
+// Checks a mesh's face-varying channel: width 1..4, one index per face corner, every index in
+// range, finite values, and no value named at two different vertices. Throws InputError
+// naming the file, line and face (or value); does nothing when the channel is empty.
+void checkFaceVarying(const Mesh& mesh);
+
+// One level of a face-varying channel: the level's faces over face-varying vertices (a face
+// that straddles a seam of the parent level split into two triangles, f's side first), their
+// connectivity, and per position half-edge h of the level (Faces::verts order) the
+// face-varying face holding it and the values at its two ends.
+struct FaceVaryingLevel {
+    Faces faces;                       // over face-varying vertices
+    Connectivity connectivity;         // of `faces`; seams are its boundary edges
+    std::vector<Index> positionOf;     // per face-varying corner: the position vertex
+    std::vector<std::uint8_t> split;   // per face-varying face: 1 for a triangle of a split face
+    std::vector<Index> faceOf;         // per position half-edge: its face-varying face
+    std::vector<Index> valueFrom, valueTo;  // per position half-edge: values at its ends
+
+    // True when position half-edge h (twin t) crosses a seam: the faces name different values.
+    bool seam(Index h, Index t) const {
+        return t != kNoIndex && (valueFrom[h] != valueTo[t] || valueTo[h] != valueFrom[t]);
+    }
+};
+
+// Level 0: the mesh's own faces over its values (checkFaceVarying must have passed).
+FaceVaryingLevel faceVaryingBase(const Mesh& mesh, const Connectivity& connectivity);
+
+// The child of `parent` for the position step from `positions` (refineLevel without a split
+// boundary): the child faces of refineFaces' order, corners mapped, seams split.
+FaceVaryingLevel refineFaceVarying(const FaceVaryingLevel& parent, const Level& positions);
 
 // ---------------------------------------------------------------------------------------
 // Counts and classification
