@@ -4,6 +4,7 @@
 
 #include "analyze.h"
 
+#include "psub/animation.h"
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
 #include "psub/output.h"
@@ -14,6 +15,7 @@
 #endif
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,14 +38,53 @@ struct Loaded {
     Mesh mesh;
     CheckedMesh checked;
     std::optional<std::string> ccProblem;  // why OpenSubdiv cannot refine it (then P-S only)
+    std::optional<GltfMaterial> material;  // glTF input with a material
 };
 
-Loaded load(const std::string& path) {
+void printWarnings(const std::vector<std::string>& warnings) {
+    std::fflush(stdout);
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+}
+
+// A glTF cage posed in world space: its static pose, or clip `animation` (default the first)
+// at `at` seconds, clamped to the clip.
+Mesh loadGltfPosed(const std::string& path, std::optional<double> at, const std::string& animation,
+                   CheckedMesh& checked, std::optional<GltfMaterial>& material) {
+    const GltfAsset asset = readGltf(path);
+    GltfPlayer player(asset);
+    std::vector<float> posed(3 * player.vertexCount());
+    if (at) {
+        std::optional<std::size_t> clip = animation.empty() && !asset.clips.empty() ? std::optional<std::size_t>(0)
+                                                                                   : findClip(asset, animation);
+        if (!clip) {
+            std::string names;
+            for (const GltfClip& c : asset.clips) names += (names.empty() ? "'" : ", '") + c.name + "'";
+            throw InputError(path + ": --at: no clip" + (animation.empty() ? "" : " '" + animation + "'") +
+                             " (clips: " + (names.empty() ? "none" : names) + ")");
+        }
+        player.pose(*clip, *at, posed, false);
+    } else {
+        player.staticPose(posed);
+    }
+    Mesh mesh = asset.mesh;
+    mesh.positions.assign(posed.begin(), posed.end());
+    requireFinite(mesh.positions, path, "posed");
+    checked = checkMesh(mesh);
+    std::vector<std::string> warnings = asset.warnings;
+    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
+    printWarnings(warnings);
+    material = asset.material;
+    return mesh;
+}
+
+Loaded load(const std::string& path, std::optional<double> at = {}, const std::string& animation = {}) {
     Loaded loaded;
-    loaded.mesh = loadChecked(path, loaded.checked);
+    loaded.mesh = isGltfPath(path) ? loadGltfPosed(path, at, animation, loaded.checked, loaded.material)
+                                   : loadChecked(path, loaded.checked);
     loaded.ccProblem = catmarkProblem(loaded.mesh);
     return loaded;
 }
+
 
 void printCatmarkUnavailable(const Loaded& loaded) {
     std::printf("\nCatmull-Clark: unavailable for this mesh (%s)\n", loaded.ccProblem->c_str());
@@ -148,6 +189,36 @@ std::optional<std::vector<double>> evaluateOnVulkan(const Refinement& r, const s
     return std::nullopt;
 }
 
+// The refined surface, for writeSurface: faces, positions, optional normals and UVs.
+struct Surface {
+    const Faces& faces;
+    const std::vector<double>& positions;
+    std::vector<double> normals;       // empty: not written
+    const FaceVaryingTable* uv = nullptr;  // with uvValues, when the input has UVs
+    std::vector<double> uvValues;
+};
+
+// Writes the refined surface as glTF (by the output's extension) or as OBJ.
+void writeSurface(const SubdivideOptions& o, const Surface& s, const Loaded& loaded, const std::string& what) {
+    if (!isGltfPath(o.output))
+        return writeOutput(o.output, formatObj(s.faces, s.positions, header(o.input, what)));
+    GltfSurface surface{s.positions, s.normals, s.faces.offsets, s.faces.verts, {}, {}};
+    if (s.uv) {
+        surface.faceOffsets = s.uv->faceOffsets;
+        surface.faceVerts = s.uv->faceVerts;
+        surface.faceValues = s.uv->faceValues;
+        surface.uvValues = s.uvValues;
+    }
+    std::string extension = std::filesystem::path(o.output).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    const bool binary = extension == ".glb";
+    if (loaded.material && loaded.material->baseColorTexture && !s.uv)
+        printWarnings({o.output + ": the base colour texture is left out: the surface has no refined UVs"});
+    writeOutput(o.output, formatGltf(surface, loaded.material ? &*loaded.material : nullptr, binary,
+                                     "psub: " + what));
+}
+
 int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, o.preprocess,
@@ -189,7 +260,19 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
                              preprocessName(preprocess) + (o.rules != Rules::Paper ? std::string(", ") + rulesName(o.rules) + " rules" : "") +
                              (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
     requireFinite(positions, o.input, "refined");
-    writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
+    Surface surface{finest, positions, {}, nullptr, {}};
+    if (isGltfPath(o.output)) {
+        CpuEvaluator<double> evaluator(refinement.perLevel, refinement.factorized, refinement.surface,
+                                       TableForm::PerLevel);
+        surface.normals.resize(positions.size());
+        evaluator.normals(positions, surface.normals);
+        if (!refinement.uv.empty() && !loaded.mesh.uv.empty()) {
+            surface.uv = &refinement.uv;
+            surface.uvValues.resize(std::size_t(refinement.uv.width) * refinement.uv.valueCount());
+            evaluateFaceVarying<double>(refinement.uv, loaded.mesh.uv.values, surface.uvValues);
+        }
+    }
+    writeSurface(o, surface, loaded, what);
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
     return 0;
@@ -206,7 +289,7 @@ int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
     const CatmarkLevel& finest = levels.back();
     const std::string what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + " levels";
     requireFinite(finest.positions, o.input, "refined");
-    writeOutput(o.output, formatObj(finest.faces, finest.positions, header(o.input, what)));
+    writeSurface(o, Surface{finest.faces, finest.positions, {}, nullptr, {}}, loaded, what);
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.faces.vertexCount, finest.faces.faceCount(), what.c_str(), msSince(start));
     return 0;
@@ -438,8 +521,15 @@ std::string dataDir() {
     return (exe.parent_path().parent_path() / "share" / "psub").string();
 }
 
+bool isGltfPath(const std::string& path) {
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    return extension == ".gltf" || extension == ".glb";
+}
+
 int runSubdivide(const SubdivideOptions& options) {
-    const Loaded loaded = load(options.input);
+    const Loaded loaded = load(options.input, options.at, options.animation);
     const bool onVulkan = options.scheme == Scheme::PS && options.backend != Backend::Cpu;
     checkCoordinateRange(loaded.mesh, onVulkan ? Precision::Float : Precision::Double);
     return options.scheme == Scheme::PS ? subdividePS(options, loaded) : subdivideCC(options, loaded);

@@ -5,6 +5,7 @@
 #include "psub/topology.h"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace psub::cli {
@@ -24,7 +25,12 @@ struct SubdivideOptions {
     Boundary boundary = Boundary::Paper;
     Backend backend = Backend::Cpu;
     std::uint64_t maxMemory = 0;  // bytes; 0 = default (3/4 of physical memory)
+    std::optional<double> at;     // glTF input: pose clip `animation` at these seconds (clamped)
+    std::string animation;        // glTF input: the clip --at poses; empty: the first
 };
+
+// .gltf or .glb (either case): read with readGltf, written with formatGltf.
+bool isGltfPath(const std::string& path);
 
 struct StatsOptions {
     std::string input;
