@@ -243,6 +243,38 @@ TEST_F(GltfIo, BoxesTouchingAlongAnEdgeLoadAsTwoShells) {
     EXPECT_EQ(run.status, 0) << run.err;
 }
 
+// A strip of 3 quads whose ends weld with a half twist (a Moebius band): one shell, and the
+// glued edge twice in the same direction. The second triangle on it gets its own copies.
+TEST_F(GltfIo, AShellMeetingItselfIsCutOpen) {
+    // Bottom b0..b3 = glTF vertices 0..3, top t0..t3 = 4..7; b3 sits on t0 and t3 on b0.
+    const std::vector<float> positions = {0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0, /**/ 0, 1, 0, 1, 1, 1, 2, 1, 1, 0, 0, 0};
+    std::vector<std::uint32_t> indices;
+    for (std::uint32_t q = 0; q < 3; ++q) indices.insert(indices.end(), {q, q + 1, q + 5, q, q + 5, q + 4});
+    ModelBuilder b;
+    tinygltf::Primitive primitive;
+    primitive.attributes["POSITION"] = b.positions(positions);
+    primitive.indices = b.indices(indices);
+    primitive.mode = TINYGLTF_MODE_TRIANGLES;
+    tinygltf::Mesh mesh;
+    mesh.primitives.push_back(primitive);
+    b.model.meshes.push_back(mesh);
+    tinygltf::Node node;
+    node.mesh = 0;
+    b.model.nodes.push_back(node);
+    const GltfAsset asset = readGltf(write(b.model, "moebius.glb"));
+    EXPECT_EQ(asset.mesh.faces.faceCount(), 6u);
+    EXPECT_EQ(asset.mesh.faces.vertexCount, 8u);  // 6 after welding, then the glued edge's 2 again
+    bool warned = false;
+    for (const std::string& warning : asset.warnings) warned = warned || contains(warning, "touching shells apart (1 edges");
+    EXPECT_TRUE(warned);
+    checkMesh(asset.mesh);
+    for (Index f = 0; f < 6; ++f)  // each corner keeps its own glTF vertex's position
+        for (Index k = 0; k < 3; ++k)
+            for (std::size_t axis = 0; axis < 3; ++axis)
+                EXPECT_EQ(asset.mesh.positions[3 * asset.mesh.faces.verts[3 * f + k] + axis],
+                          double(positions[3 * indices[3 * f + k] + axis]));
+}
+
 // ---------------------------------------------------------------------------------------
 // Reader: materials
 
