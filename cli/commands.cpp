@@ -41,6 +41,14 @@ struct Loaded {
     std::optional<GltfMaterial> material;  // glTF input with a material
 };
 
+// ".glb" of "Out.GLB".
+std::string lowerExtension(const std::string& path) {
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    return extension;
+}
+
 void printWarnings(const std::vector<std::string>& warnings) {
     std::fflush(stdout);
     for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
@@ -84,7 +92,6 @@ Loaded load(const std::string& path, std::optional<double> at = {}, const std::s
     loaded.ccProblem = catmarkProblem(loaded.mesh);
     return loaded;
 }
-
 
 void printCatmarkUnavailable(const Loaded& loaded) {
     std::printf("\nCatmull-Clark: unavailable for this mesh (%s)\n", loaded.ccProblem->c_str());
@@ -209,10 +216,7 @@ void writeSurface(const SubdivideOptions& o, const Surface& s, const Loaded& loa
         surface.faceValues = s.uv->faceValues;
         surface.uvValues = s.uvValues;
     }
-    std::string extension = std::filesystem::path(o.output).extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return char(std::tolower(c)); });
-    const bool binary = extension == ".glb";
+    const bool binary = lowerExtension(o.output) == ".glb";
     if (loaded.material && loaded.material->baseColorTexture && !s.uv)
         printWarnings({o.output + ": the base colour texture is left out: the surface has no refined UVs"});
     writeOutput(o.output, formatGltf(surface, loaded.material ? &*loaded.material : nullptr, binary,
@@ -507,8 +511,7 @@ Mesh loadChecked(const std::string& path, CheckedMesh& checked) {
     Mesh mesh = readObj(path, &warnings);
     checked = checkMesh(mesh);
     warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
-    std::fflush(stdout);
-    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    printWarnings(warnings);
     return mesh;
 }
 
@@ -522,9 +525,7 @@ std::string dataDir() {
 }
 
 bool isGltfPath(const std::string& path) {
-    std::string extension = std::filesystem::path(path).extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return char(std::tolower(c)); });
+    const std::string extension = lowerExtension(path);
     return extension == ".gltf" || extension == ".glb";
 }
 
