@@ -27,6 +27,10 @@ namespace psub {
 namespace {
 
 constexpr std::uint32_t kInfluences = 4;
+
+using ImageBytes = std::vector<std::vector<unsigned char>>;  // per image of the file: its bytes
+
+std::string percentDecoded(const std::string& uri);
 constexpr std::size_t kMaxUnbackedCount = std::size_t(1) << 24;  // accessors without a buffer view
 
 // The file being read, for error messages.
@@ -373,6 +377,19 @@ public:
 
     Index count() const { return Index(positions_.size() / 3); }
 
+    // A new cage vertex with the data of cage vertex `v` (to keep touching shells apart).
+    Index duplicate(Index v) {
+        const auto copy = [v](auto& data, std::size_t width) {
+            data.insert(data.end(), data.begin() + std::ptrdiff_t(v * width),
+                        data.begin() + std::ptrdiff_t((v + 1) * width));
+        };
+        copy(positions_, 3);
+        copy(joints_, kInfluences);
+        copy(weights_, kInfluences);
+        copy(deltas_, 3 * std::size_t(targetCount_));
+        return count() - 1;
+    }
+
     void finish(GltfAsset& asset) {
         const std::size_t vertices = count();
         asset.mesh.faces.vertexCount = Index(vertices);
@@ -464,6 +481,7 @@ void skinVertex(const Context& cx, const Values& joints, const Values& weights, 
 
 struct PrimitiveAttributes {
     Values positions, joints, weights;
+    Values uvs;  // TEXCOORD_0; count 0: none
     std::vector<Values> targets;  // POSITION deltas per morph target (empty Values: none)
 };
 
@@ -487,6 +505,19 @@ PrimitiveAttributes readAttributes(const Context& cx, const tinygltf::Primitive&
         requireCount(cx, attributes.joints, count, joints, element + " JOINTS_0");
         requireCount(cx, attributes.weights, count, weights, element + " WEIGHTS_0");
     }
+    if (const int uv = attribute(primitive, "TEXCOORD_0"); uv >= 0) {
+        const std::string use = element + " TEXCOORD_0";
+        attributes.uvs = readAccessor(cx, uv, TINYGLTF_TYPE_VEC2, use);
+        const tinygltf::Accessor& accessor = cx.model.accessors[std::size_t(uv)];
+        const int type = accessor.componentType;
+        if (type != TINYGLTF_COMPONENT_TYPE_FLOAT &&
+            !(accessor.normalized && (type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                      type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)))
+            cx.fail(accessorUse(uv, use), "component type " + std::to_string(type) +
+                                              ", expected FLOAT or normalized UNSIGNED_BYTE / UNSIGNED_SHORT");
+        requireFinite(cx, attributes.uvs, uv, use);
+        requireCount(cx, attributes.uvs, count, uv, use);
+    }
     if (primitive.targets.size() != asset.morphs.targetCount)
         cx.fail(element, "has " + std::to_string(primitive.targets.size()) + " morph targets, primitive 0 has " +
                              std::to_string(asset.morphs.targetCount));
@@ -502,9 +533,18 @@ PrimitiveAttributes readAttributes(const Context& cx, const tinygltf::Primitive&
     return attributes;
 }
 
+// What the primitives add up to beyond the welded cage: per glTF vertex its UV, per cage
+// corner its glTF vertex.
+struct CageExtras {
+    std::vector<double> uvs;          // 2 per glTF vertex (0, 0 where a primitive has none)
+    std::size_t primitivesWithUv = 0, primitivesWithoutUv = 0;
+    std::vector<Index> gltfCorners;   // per entry of mesh.faces.verts
+    std::size_t degenerate = 0;
+};
+
 // Welds one primitive's vertices into the cage and adds its triangles.
 void addPrimitive(const Context& cx, std::size_t meshIndex, std::size_t index, Welder& welder,
-                  GltfAsset& asset, std::size_t& degenerate) {
+                  GltfAsset& asset, CageExtras& extras) {
     const tinygltf::Primitive& primitive = cx.model.meshes[meshIndex].primitives[index];
     const std::string element = primitiveName(meshIndex, index);
     const PrimitiveAttributes attributes = readAttributes(cx, primitive, element, asset);
@@ -527,14 +567,120 @@ void addPrimitive(const Context& cx, std::size_t meshIndex, std::size_t index, W
                 vertex.deltas[3 * t + axis] =
                     attributes.targets[t].data.empty() ? 0.0f : float(attributes.targets[t].at(v, axis));
         asset.cageVertexOf.push_back(welder.add(vertex));
+        for (std::size_t axis = 0; axis < 2; ++axis)
+            extras.uvs.push_back(attributes.uvs.count == 0 ? 0.0 : attributes.uvs.at(v, axis));
     }
+    ++(attributes.uvs.count == 0 ? extras.primitivesWithoutUv : extras.primitivesWithUv);
     for (std::size_t c = 0; c < corners.size(); c += 3) {
         const std::array<Index, 3> face = {asset.cageVertexOf[first + corners[c]],
                                            asset.cageVertexOf[first + corners[c + 1]],
                                            asset.cageVertexOf[first + corners[c + 2]]};
-        if (face[0] == face[1] || face[1] == face[2] || face[2] == face[0]) ++degenerate;
-        else asset.mesh.faces.addFace(face);
+        if (face[0] == face[1] || face[1] == face[2] || face[2] == face[0]) {
+            ++extras.degenerate;
+            continue;
+        }
+        asset.mesh.faces.addFace(face);
+        for (std::size_t k = 0; k < 3; ++k) extras.gltfCorners.push_back(Index(first + corners[c + k]));
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// Touching shells
+
+// The face corners (half-edges) of each undirected edge, grouped: edges[i] = {key, corner}.
+std::vector<std::pair<std::uint64_t, Index>> edgeCorners(const Faces& faces) {
+    std::vector<std::pair<std::uint64_t, Index>> edges;
+    edges.reserve(faces.verts.size());
+    for (Index f = 0; f < faces.faceCount(); ++f)
+        for (Index k = 0; k < faces.faceSize(f); ++k) {
+            const Index h = faces.offsets[f] + k;
+            const Index next = faces.offsets[f] + (k + 1) % faces.faceSize(f);
+            const Index a = std::min(faces.verts[h], faces.verts[next]), b = std::max(faces.verts[h], faces.verts[next]);
+            edges.emplace_back((std::uint64_t(a) << 32) | b, h);
+        }
+    std::sort(edges.begin(), edges.end());
+    return edges;
+}
+
+// The face holding each corner.
+std::vector<Index> cornerFaces(const Faces& faces) {
+    std::vector<Index> faceOf(faces.verts.size());
+    for (Index f = 0; f < faces.faceCount(); ++f)
+        std::fill(faceOf.begin() + faces.offsets[f], faceOf.begin() + faces.offsets[f + 1], f);
+    return faceOf;
+}
+
+// Calls bad(first, last) for each edge group [first, last) of `edges` that makes the mesh
+// non-manifold: three or more faces, or two in the same direction; good(first) for the others
+// shared by two faces.
+template <class Bad, class Good>
+void forEachSharedEdge(const Faces& faces, const std::vector<std::pair<std::uint64_t, Index>>& edges, Bad bad,
+                       Good good) {
+    for (std::size_t first = 0, last = 0; first < edges.size(); first = last) {
+        while (last < edges.size() && edges[last].first == edges[first].first) ++last;
+        const bool sameDirection =
+            last - first == 2 && faces.verts[edges[first].second] == faces.verts[edges[first + 1].second];
+        if (last - first > 2 || sameDirection) bad(first, last);
+        else if (last - first == 2) good(first);
+    }
+}
+
+Index findRoot(std::vector<Index>& parent, Index x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+}
+
+// Un-welds the vertices of edges that make the cage non-manifold, one copy per shell (faces
+// connected through manifold edges); where one shell meets itself, per face beyond the first
+// two. Returns how many such edges there were.
+std::size_t separateTouchingShells(Faces& faces, Welder& welder) {
+    std::vector<std::pair<std::uint64_t, Index>> edges = edgeCorners(faces);
+    const std::vector<Index> faceOf = cornerFaces(faces);
+    std::vector<Index> shell(faces.faceCount());
+    for (Index f = 0; f < faces.faceCount(); ++f) shell[f] = f;
+    std::vector<char> split(welder.count(), 0);
+    std::size_t badEdges = 0;
+    forEachSharedEdge(
+        faces, edges,
+        [&](std::size_t first, std::size_t) {
+            ++badEdges;
+            split[edges[first].first >> 32] = split[edges[first].first & 0xffffffffu] = 1;
+        },
+        [&](std::size_t first) {
+            shell[findRoot(shell, faceOf[edges[first].second])] = findRoot(shell, faceOf[edges[first + 1].second]);
+        });
+    if (badEdges == 0) return 0;
+    // One copy of each split vertex per shell; the first shell met keeps the vertex.
+    std::unordered_map<std::uint64_t, Index> copyOf;
+    std::vector<Index> keeper(split.size(), kNoIndex);
+    for (std::size_t h = 0; h < faces.verts.size(); ++h) {
+        const Index v = faces.verts[h];
+        if (!split[v]) continue;
+        const Index root = findRoot(shell, faceOf[h]);
+        if (keeper[v] == kNoIndex) keeper[v] = root;
+        if (keeper[v] == root) continue;
+        const auto [slot, inserted] = copyOf.try_emplace((std::uint64_t(v) << 32) | root, kNoIndex);
+        if (inserted) slot->second = welder.duplicate(v);
+        faces.verts[h] = slot->second;
+    }
+    // A shell that meets itself: faces beyond the first (and a second of the other direction)
+    // get their own copies of the edge's two vertices.
+    edges = edgeCorners(faces);
+    forEachSharedEdge(
+        faces, edges,
+        [&](std::size_t first, std::size_t last) {
+            const bool keepSecond = faces.verts[edges[first].second] != faces.verts[edges[first + 1].second];
+            for (std::size_t e = first + (keepSecond ? 2 : 1); e < last; ++e) {
+                const Index f = faceOf[edges[e].second];
+                const Index a = faces.verts[edges[e].second];
+                const Index b = Index(edges[e].first >> 32) == a ? Index(edges[e].first & 0xffffffffu)
+                                                                  : Index(edges[e].first >> 32);
+                for (Index h = faces.offsets[f]; h < faces.offsets[f + 1]; ++h)
+                    if (faces.verts[h] == a || faces.verts[h] == b) faces.verts[h] = welder.duplicate(faces.verts[h]);
+            }
+        },
+        [](std::size_t) {});
+    return badEdges;
 }
 
 // Default morph weights: the node's, else the mesh's, else zeros.
@@ -563,21 +709,123 @@ void readCage(const Context& cx, GltfAsset& asset) {
     if (node.skin >= 0) asset.skin = readSkin(cx, std::size_t(node.skin));
     readMorphDefaults(cx, node, asset.meshNode, mesh, meshIndex, asset.morphs);
     Welder welder(asset.morphs.targetCount);
-    std::size_t degenerate = 0;
+    CageExtras extras;
     bool moreInfluences = false;
     for (std::size_t p = 0; p < mesh.primitives.size(); ++p) {
-        addPrimitive(cx, meshIndex, p, welder, asset, degenerate);
+        addPrimitive(cx, meshIndex, p, welder, asset, extras);
         moreInfluences = moreInfluences || attribute(mesh.primitives[p], "JOINTS_1") >= 0;
+    }
+    const std::string meshName = cx.path + ": " + named("mesh", meshIndex);
+    if (const std::size_t touching = separateTouchingShells(asset.mesh.faces, welder); touching > 0) {
+        for (std::size_t c = 0; c < extras.gltfCorners.size(); ++c)
+            asset.cageVertexOf[extras.gltfCorners[c]] = asset.mesh.faces.verts[c];
+        asset.warnings.push_back(meshName + ": kept touching shells apart (" + std::to_string(touching) +
+                                 " edges shared by more than two triangles, or twice in one direction, after "
+                                 "welding by position)");
     }
     welder.finish(asset);
     asset.mesh.source.path = cx.path;
     if (asset.mesh.faces.faceCount() == 0) cx.fail(named("mesh", meshIndex), "has no triangles");
-    if (degenerate > 0)
-        asset.warnings.push_back(cx.path + ": " + named("mesh", meshIndex) + ": dropped " + std::to_string(degenerate) +
+    if (extras.primitivesWithUv > 0) {
+        asset.mesh.uv.width = 2;
+        asset.mesh.uv.values = std::move(extras.uvs);
+        asset.mesh.uv.corners = std::move(extras.gltfCorners);
+        if (extras.primitivesWithoutUv > 0)
+            asset.warnings.push_back(meshName + ": " + std::to_string(extras.primitivesWithoutUv) +
+                                     " primitives without TEXCOORD_0 get UV (0, 0)");
+    }
+    if (extras.degenerate > 0)
+        asset.warnings.push_back(meshName + ": dropped " + std::to_string(extras.degenerate) +
                                  " degenerate triangles (a corner repeated after welding)");
     if (moreInfluences && asset.skin)
         asset.warnings.push_back(cx.path + ": " + named("mesh", meshIndex) +
                                  ": JOINTS_1/WEIGHTS_1 ignored (at most 4 influences; weights renormalised)");
+}
+
+// ---------------------------------------------------------------------------------------
+// Material
+
+// The MIME type of PNG or JPEG bytes, from their magic bytes; empty for anything else.
+std::string imageType(const std::vector<unsigned char>& bytes) {
+    static constexpr unsigned char png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static constexpr unsigned char jpeg[] = {0xff, 0xd8, 0xff};
+    if (bytes.size() >= sizeof png && std::equal(std::begin(png), std::end(png), bytes.begin())) return "image/png";
+    if (bytes.size() >= sizeof jpeg && std::equal(std::begin(jpeg), std::end(jpeg), bytes.begin())) return "image/jpeg";
+    return {};
+}
+
+GltfImage readImage(const Context& cx, const ImageBytes& images, int index, const std::string& user) {
+    if (index < 0 || std::size_t(index) >= cx.model.images.size())
+        cx.fail(user, "image " + std::to_string(index) + " does not exist");
+    const tinygltf::Image& image = cx.model.images[std::size_t(index)];
+    const std::string element = named("image", std::size_t(index));
+    const std::string where = image.bufferView >= 0 ? "buffer view " + std::to_string(image.bufferView)
+                              : image.uri.starts_with("data:") ? std::string("its data URI")
+                                                               : "uri '" + image.uri + "'";
+    GltfImage result;
+    if (std::size_t(index) < images.size()) result.bytes = images[std::size_t(index)];
+    if (result.bytes.empty()) cx.fail(element, where + ": missing, unreadable or empty");
+    result.mimeType = imageType(result.bytes);
+    if (result.mimeType.empty()) cx.fail(element, where + ": neither a PNG nor a JPEG image");
+    result.name = !image.name.empty() ? image.name
+                  : image.uri.empty() || image.uri.starts_with("data:")
+                      ? std::string()
+                      : std::filesystem::path(percentDecoded(image.uri)).filename().string();
+    return result;
+}
+
+GltfSampler readSampler(const Context& cx, int index, const std::string& user) {
+    GltfSampler result;
+    if (index < 0) return result;
+    if (std::size_t(index) >= cx.model.samplers.size())
+        cx.fail(user, "sampler " + std::to_string(index) + " does not exist");
+    const tinygltf::Sampler& sampler = cx.model.samplers[std::size_t(index)];
+    result.magFilter = sampler.magFilter;
+    result.minFilter = sampler.minFilter;
+    result.wrapS = sampler.wrapS;
+    result.wrapT = sampler.wrapT;
+    return result;
+}
+
+// The base colour of the first material the cage's primitives name (a warning if they name more).
+void readMaterial(const Context& cx, const ImageBytes& images, GltfAsset& asset) {
+    const std::size_t meshIndex = std::size_t(cx.model.nodes[asset.meshNode].mesh);
+    const auto& primitives = cx.model.meshes[meshIndex].primitives;
+    int chosen = -1;
+    bool several = false;
+    for (std::size_t p = 0; p < primitives.size(); ++p) {
+        const int material = primitives[p].material;
+        if (material < 0) continue;
+        if (std::size_t(material) >= cx.model.materials.size())
+            cx.fail(primitiveName(meshIndex, p), "material " + std::to_string(material) + " does not exist");
+        if (chosen < 0) chosen = material;
+        several = several || material != chosen;
+    }
+    if (chosen < 0) return;
+    const std::string element = named("material", std::size_t(chosen));
+    if (several)
+        asset.warnings.push_back(cx.path + ": " + named("mesh", meshIndex) +
+                                 ": primitives name several materials; only " + element + " is kept");
+    const tinygltf::Material& material = cx.model.materials[std::size_t(chosen)];
+    GltfMaterial result;
+    result.name = material.name;
+    copyVector(cx, material.pbrMetallicRoughness.baseColorFactor, result.baseColorFactor, element, "baseColorFactor");
+    const tinygltf::TextureInfo& info = material.pbrMetallicRoughness.baseColorTexture;
+    if (info.index >= 0) {
+        if (std::size_t(info.index) >= cx.model.textures.size())
+            cx.fail(element, "base colour texture " + std::to_string(info.index) + " does not exist");
+        const std::string textureName = named("texture", std::size_t(info.index));
+        const tinygltf::Texture& texture = cx.model.textures[std::size_t(info.index)];
+        if (info.texCoord != 0)
+            asset.warnings.push_back(cx.path + ": " + element + ": the base colour texture reads TEXCOORD_" +
+                                     std::to_string(info.texCoord) + "; psub reads TEXCOORD_0 only");
+        if (texture.source < 0)
+            asset.warnings.push_back(cx.path + ": " + textureName + ": no PNG or JPEG source; texture ignored");
+        else
+            result.baseColorTexture = readImage(cx, images, texture.source, textureName);
+        result.sampler = readSampler(cx, texture.sampler, textureName);
+    }
+    asset.material = std::move(result);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -704,9 +952,14 @@ std::vector<unsigned char> readBytes(const std::string& path) {
     }
 }
 
-// tinygltf decodes images by default; the cage needs none.
-bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
-               void*) {
+// tinygltf decodes images by default; psub keeps their bytes (per image index) undecoded.
+
+bool keepImageBytes(tinygltf::Image*, const int index, std::string*, std::string*, int, int,
+                    const unsigned char* bytes, int size, void* user) {
+    auto& images = *static_cast<ImageBytes*>(user);
+    if (index < 0 || size < 0) return true;
+    if (images.size() <= std::size_t(index)) images.resize(std::size_t(index) + 1);
+    images[std::size_t(index)].assign(bytes, bytes + size);
     return true;
 }
 
@@ -889,12 +1142,12 @@ bool writeNothing(std::string* error, const std::string&, const std::vector<unsi
     return false;
 }
 
-tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& warnings) {
+tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& warnings, ImageBytes& images) {
     const std::vector<unsigned char> bytes = readBytes(path);
     if (bytes.empty()) throw InputError(path + ": the file is empty");
     if (bytes.size() > UINT_MAX) throw InputError(path + ": the file is larger than 4 GiB");
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&skipImage, nullptr);
+    loader.SetImageLoader(&keepImageBytes, &images);
     loader.SetFsCallbacks({&fileExists, &expandNothing, &readRegularFile, &writeNothing, nullptr});
     tinygltf::Model model;
     std::string error, warning;
@@ -916,12 +1169,14 @@ tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& war
 
 GltfAsset readGltf(const std::string& path) {
     GltfAsset asset;
-    const tinygltf::Model model = parseFile(path, asset.warnings);
+    ImageBytes images;
+    const tinygltf::Model model = parseFile(path, asset.warnings, images);
     const Context cx{path, model};
     for (std::size_t n = 0; n < model.nodes.size(); ++n) asset.nodes.push_back(readNode(cx, n));
     linkNodes(cx, asset);
     asset.meshNode = std::uint32_t(findMeshNode(cx));
     readCage(cx, asset);
+    readMaterial(cx, images, asset);
     for (std::size_t a = 0; a < model.animations.size(); ++a)
         asset.clips.push_back(readClip(cx, asset, a, asset.warnings));
     return asset;

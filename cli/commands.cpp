@@ -5,6 +5,7 @@
 
 #include "memory_guard.h"
 
+#include "psub/animation.h"
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
 #include "psub/output.h"
@@ -15,6 +16,7 @@
 #endif
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,9 +32,54 @@ double msSince(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-Loaded load(const std::string& path) {
+// ".glb" of "Out.GLB".
+std::string lowerExtension(const std::string& path) {
+    std::string extension = std::filesystem::path(path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    return extension;
+}
+
+void printWarnings(const std::vector<std::string>& warnings) {
+    std::fflush(stdout);
+    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+}
+
+// A glTF cage posed in world space: its static pose, or clip `animation` (default the first)
+// at `at` seconds, clamped to the clip.
+Mesh loadGltfPosed(const std::string& path, std::optional<double> at, const std::string& animation,
+                   CheckedMesh& checked, std::optional<GltfMaterial>& material) {
+    const GltfAsset asset = readGltf(path);
+    GltfPlayer player(asset);
+    std::vector<float> posed(3 * player.vertexCount());
+    if (at) {
+        std::optional<std::size_t> clip = animation.empty() && !asset.clips.empty() ? std::optional<std::size_t>(0)
+                                                                                   : findClip(asset, animation);
+        if (!clip) {
+            std::string names;
+            for (const GltfClip& c : asset.clips) names += (names.empty() ? "'" : ", '") + c.name + "'";
+            throw InputError(path + ": --at: no clip" + (animation.empty() ? "" : " '" + animation + "'") +
+                             " (clips: " + (names.empty() ? "none" : names) + ")");
+        }
+        player.pose(*clip, *at, posed, false);
+    } else {
+        player.staticPose(posed);
+    }
+    Mesh mesh = asset.mesh;
+    mesh.positions.assign(posed.begin(), posed.end());
+    requireFinite(mesh.positions, path, "posed");
+    checked = checkMesh(mesh);
+    std::vector<std::string> warnings = asset.warnings;
+    warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
+    printWarnings(warnings);
+    material = asset.material;
+    return mesh;
+}
+
+Loaded load(const std::string& path, std::optional<double> at, const std::string& animation) {
     Loaded loaded;
-    loaded.mesh = loadChecked(path, loaded.checked);
+    loaded.mesh = isGltfPath(path) ? loadGltfPosed(path, at, animation, loaded.checked, loaded.material)
+                                   : loadChecked(path, loaded.checked);
     loaded.ccProblem = catmarkProblem(loaded.mesh);
     return loaded;
 }
@@ -86,6 +133,38 @@ std::optional<std::vector<double>> evaluateOnVulkan(const Refinement& r, const s
     return std::nullopt;
 }
 
+// The refined surface, for writeSurface: faces, positions, optional normals and UVs.
+struct Surface {
+    const Faces& faces;
+    const std::vector<double>& positions;
+    std::vector<double> normals;       // empty: not written
+    const FaceVaryingTable* uv = nullptr;  // with uvValues, when the input has UVs
+    std::vector<double> uvValues;
+    std::string what;  // how it was refined, for the OBJ header and the glTF generator field
+};
+
+// Writes the refined surface as glTF (by the output's extension) or as OBJ.
+void writeSurface(const SubdivideOptions& o, const Surface& s, const Loaded& loaded) {
+    const std::string& what = s.what;
+    if (!isGltfPath(o.output) && !s.uv)
+        return writeOutput(o.output, formatObj(s.faces, s.positions, header(o.input, what)));
+    if (!isGltfPath(o.output))
+        return writeOutput(o.output, formatObjWithUv(s.positions, s.uvValues, s.uv->width, s.uv->faceOffsets,
+                                                     s.uv->faceVerts, s.uv->faceValues, header(o.input, what)));
+    GltfSurface surface{s.positions, s.normals, s.faces.offsets, s.faces.verts, {}, {}};
+    if (s.uv) {
+        surface.faceOffsets = s.uv->faceOffsets;
+        surface.faceVerts = s.uv->faceVerts;
+        surface.faceValues = s.uv->faceValues;
+        surface.uvValues = s.uvValues;
+    }
+    const bool binary = lowerExtension(o.output) == ".glb";
+    if (loaded.material && loaded.material->baseColorTexture && !s.uv)
+        printWarnings({o.output + ": the base colour texture is left out: the surface has no refined UVs"});
+    writeOutput(o.output, formatGltf(surface, loaded.material ? &*loaded.material : nullptr, binary,
+                                     "psub: " + what));
+}
+
 int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     const Faces& faces = loaded.mesh.faces;
     if (!loaded.mesh.uv.empty() && o.boundary == Boundary::Smooth) {
@@ -133,17 +212,21 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
                              preprocessName(preprocess) + (o.rules != Rules::Paper ? std::string(", ") + rulesName(o.rules) + " rules" : "") +
                              (o.boundary == Boundary::Smooth ? ", smooth boundary" : "");
     requireFinite(positions, o.input, "refined");
-    if (refinement.uv.empty()) {
-        writeOutput(o.output, formatObj(finest, positions, header(o.input, what)));
-    } else {
-        const FaceVaryingTable& uv = refinement.uv;
-        std::vector<double> values(std::size_t(uv.width) * uv.valueCount());
-        evaluateFaceVarying<double>(uv, loaded.mesh.uv.values, values);
-        const std::string uvWhat = what + ", texture coordinates: " + uvLinearName(o.uvLinear) +
-                                   " (docs/face-varying.md: faces straddling a seam are split in two)";
-        writeOutput(o.output, formatObjWithUv(positions, values, uv.width, uv.faceOffsets, uv.faceVerts,
-                                              uv.faceValues, header(o.input, uvWhat)));
+    Surface surface{finest, positions, {}, nullptr, {}, what};
+    if (!refinement.uv.empty()) {
+        surface.uv = &refinement.uv;
+        surface.uvValues.resize(std::size_t(refinement.uv.width) * refinement.uv.valueCount());
+        evaluateFaceVarying<double>(refinement.uv, loaded.mesh.uv.values, surface.uvValues);
+        surface.what += ", texture coordinates: " + std::string(uvLinearName(o.uvLinear)) +
+                        " (docs/face-varying.md: faces straddling a seam are split in two)";
     }
+    if (isGltfPath(o.output)) {
+        CpuEvaluator<double> evaluator(refinement.perLevel, refinement.factorized, refinement.surface,
+                                       TableForm::PerLevel);
+        surface.normals.resize(positions.size());
+        evaluator.normals(positions, surface.normals);
+    }
+    writeSurface(o, surface, loaded);
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
                 finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
     return 0;
@@ -160,7 +243,7 @@ int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
     const CatmarkLevel& finest = levels.back();
     const std::string what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + " levels";
     requireFinite(finest.positions, o.input, "refined");
-    writeOutput(o.output, formatObj(finest.faces, finest.positions, header(o.input, what)));
+    writeSurface(o, Surface{finest.faces, finest.positions, {}, nullptr, {}, what}, loaded);
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.faces.vertexCount, finest.faces.faceCount(), what.c_str(), msSince(start));
     return 0;
@@ -224,8 +307,7 @@ Mesh loadChecked(const std::string& path, CheckedMesh& checked) {
     Mesh mesh = readObj(path, &warnings);
     checked = checkMesh(mesh);
     warnings.insert(warnings.end(), checked.warnings.begin(), checked.warnings.end());
-    std::fflush(stdout);
-    for (const std::string& warning : warnings) std::fprintf(stderr, "psub: warning: %s\n", warning.c_str());
+    printWarnings(warnings);
     return mesh;
 }
 
@@ -238,8 +320,13 @@ std::string dataDir() {
     return (exe.parent_path().parent_path() / "share" / "psub").string();
 }
 
+bool isGltfPath(const std::string& path) {
+    const std::string extension = lowerExtension(path);
+    return extension == ".gltf" || extension == ".glb";
+}
+
 int runSubdivide(const SubdivideOptions& options) {
-    const Loaded loaded = load(options.input);
+    const Loaded loaded = load(options.input, options.at, options.animation);
     const bool onVulkan = options.scheme == Scheme::PS && options.backend != Backend::Cpu;
     checkCoordinateRange(loaded.mesh, onVulkan ? Precision::Float : Precision::Double);
     return options.scheme == Scheme::PS ? subdividePS(options, loaded) : subdivideCC(options, loaded);

@@ -1,6 +1,7 @@
 // The psub commands, each a plain function over parsed options (see main.cpp for the CLI).
 #pragma once
 
+#include "psub/animation.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
 #include "psub/topology.h"
@@ -29,7 +30,12 @@ struct SubdivideOptions {
     Backend backend = Backend::Cpu;
     std::uint64_t maxMemory = 0;  // bytes; 0 = default (3/4 of physical memory)
     UvLinear uvLinear = UvLinear::Boundaries;  // texture coordinates (docs/face-varying.md)
+    std::optional<double> at;     // glTF input: pose clip `animation` at these seconds (clamped)
+    std::string animation;        // glTF input: the clip --at poses; empty: the first
 };
+
+// .gltf or .glb (either case): read with readGltf, written with formatGltf.
+bool isGltfPath(const std::string& path);
 
 struct StatsOptions {
     std::string input;
@@ -65,9 +71,12 @@ double msSince(Clock::time_point start);
 struct Loaded {
     Mesh mesh;
     CheckedMesh checked;
-    std::optional<std::string> ccProblem;
+    std::optional<std::string> ccProblem;  // why OpenSubdiv cannot refine it (then P-S only)
+    std::optional<GltfMaterial> material;  // glTF input with a material
 };
-Loaded load(const std::string& path);
+// An OBJ or glTF file, checked; a glTF cage in its static pose, or clip `animation` (default
+// the first) at `at` seconds.
+Loaded load(const std::string& path, std::optional<double> at = {}, const std::string& animation = {});
 
 // The comment at the top of a written OBJ file.
 std::string header(const std::string& input, const std::string& what);

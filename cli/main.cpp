@@ -102,9 +102,20 @@ int main(int argc, char** argv) {
                "Exit status: 0 success, 1 bad input, 2 usage error.");
 
     SubdivideOptions subdivide;
-    CLI::App* sub = app.add_subcommand("subdivide", "Refine a mesh and write it as OBJ");
-    sub->add_option("input", subdivide.input, "input mesh (.obj)")->required();
-    sub->add_option("-o,--output", subdivide.output, "output mesh (.obj), written atomically; - for standard output")->required();
+    CLI::App* sub = app.add_subcommand("subdivide", "Refine a mesh and write it as OBJ or glTF");
+    sub->add_option("input", subdivide.input,
+                    "input mesh: .obj, or .gltf / .glb (its mesh posed in world space, UVs and base colour material)")
+        ->required();
+    sub->add_option("-o,--output", subdivide.output,
+                    "output mesh, written atomically: .glb or .gltf (self-contained: positions, normals, UVs, the "
+                    "material and its texture), else OBJ; - for OBJ on standard output")
+        ->required();
+    double subdivideAt = 0;
+    addReal(sub, "--at", subdivideAt, 0, 1e9,
+            "glTF input: pose the clip (--anim, default the first) at this many seconds (clamped to the clip) "
+            "before refining; without it, the rest pose",
+            0);
+    sub->add_option("--anim", subdivide.animation, "glTF input with --at: the name of the clip to pose");
     addInteger(sub, "-l,--levels", subdivide.levels, 0, kMaxLevels,
                "refinement steps (P-S steps after any preprocessing; 0 writes the preprocessed mesh)", 1);
     addChoice(sub, "--scheme", subdivide.scheme, kSchemeNames,
@@ -133,6 +144,7 @@ int main(int argc, char** argv) {
     sub->footer("Example:\n  psub subdivide data/cow.obj -o cow_ps4.obj --levels 4\n"
                 "  psub subdivide data/cow.obj -o cow_cc2.obj --levels 2 --scheme cc\n"
                 "  psub subdivide data/grid4x4.obj -o grid_smooth.obj --levels 4 --boundary smooth\n"
+                "  psub subdivide data/two_bone_cylinder.glb -o bent.glb --levels 3 --at 0.5\n"
                 "Vertex order (docs/scheme.md): children of old vertices first, then one vertex per "
                 "old face (then, --boundary smooth, one per split boundary edge, in edge order).");
 
@@ -304,6 +316,15 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "psub: usage error: %s (see psub COMMAND --help)\n", message.c_str());
         return 2;
     }
+    if (sub->parsed() && (sub->count("--at") || sub->count("--anim")) && !isGltfPath(subdivide.input)) {
+        std::fprintf(stderr, "psub subdivide: --at and --anim apply to glTF input (.gltf, .glb) only\n");
+        return 2;
+    }
+    if (sub->parsed() && sub->count("--anim") && !sub->count("--at")) {
+        std::fprintf(stderr, "psub subdivide: --anim needs --at SECONDS\n");
+        return 2;
+    }
+    if (sub->parsed() && sub->count("--at")) subdivide.at = subdivideAt;
     if (sub->parsed() && subdivide.scheme == Scheme::CatmullClark && sub->count("--preprocess")) {
         std::fprintf(stderr, "psub subdivide: --preprocess applies to --scheme ps only\n");
         return 2;

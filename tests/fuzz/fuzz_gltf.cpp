@@ -1,6 +1,6 @@
 // libFuzzer target: whatever bytes arrive are loaded as a glTF file (through a temporary file,
-// readGltf's interface); a file that loads is checked as a mesh and every clip is posed at a
-// few times. Only InputError may come out; the poses must stay finite where the file's
+// readGltf's interface); a file that loads is checked as a mesh, every clip is posed at a
+// few times, and its cage, UVs (TEXCOORD_0) and material are written back with formatGltf. Only InputError may come out; the poses must stay finite where the file's
 // numbers are (readGltf rejects non-finite ones).
 #include "psub/animation.h"
 
@@ -31,6 +31,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         player.staticPose(pose);
         for (std::size_t clip = 0; clip < player.clipCount(); ++clip)
             for (double t : {0.0, 0.37, 1.0, 12.5}) player.pose(clip, t, pose);
+        const psub::Mesh& mesh = asset.mesh;
+        if (!mesh.uv.empty() && mesh.uv.corners.size() != mesh.faces.verts.size()) std::abort();
+        for (psub::Index value : mesh.uv.corners)
+            if (value >= mesh.uv.valueCount()) std::abort();
+        const std::vector<double> normals(mesh.positions.size(), 0.0);
+        const psub::GltfSurface surface{mesh.positions, normals, mesh.faces.offsets, mesh.faces.verts,
+                                        mesh.uv.corners, mesh.uv.values};
+        psub::formatGltf(surface, asset.material ? &*asset.material : nullptr, true, "fuzz");
     } catch (const psub::InputError&) {
     }
     return 0;

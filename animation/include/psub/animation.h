@@ -126,12 +126,41 @@ struct GltfClip {
     std::vector<GltfChannel> channels;
 };
 
+// An image as stored in the file (never decoded here): PNG or JPEG bytes, checked by their
+// magic bytes, from a buffer view, a data URI or an external file.
+struct GltfImage {
+    std::string mimeType;             // "image/png" or "image/jpeg"
+    std::vector<unsigned char> bytes;
+    std::string name;                 // the image's name, else its file name; may be empty
+};
+
+// glTF sampler codes (e.g. 10497 REPEAT, 33071 CLAMP_TO_EDGE, 9729 LINEAR); -1: not given.
+struct GltfSampler {
+    int magFilter = -1, minFilter = -1;
+    int wrapS = 10497, wrapT = 10497;
+};
+
+// What the cage's material says about its base colour (pbrMetallicRoughness): colour =
+// factor * texture(TEXCOORD_0), in linear RGBA; the texture is sRGB-encoded as glTF says.
+struct GltfMaterial {
+    std::string name;
+    std::array<double, 4> baseColorFactor{1, 1, 1, 1};
+    std::optional<GltfImage> baseColorTexture;
+    GltfSampler sampler;  // the texture's sampler (defaults without a texture)
+};
+
 // What readGltf loads. Vertices of the file ("glTF vertices") are numbered primitive after
 // primitive; glTF splits a vertex wherever a face attribute changes (UV and normal seams), so
 // glTF vertices whose POSITION, joints, weights and morph deltas are all bitwise equal are
 // welded into one cage vertex.
+// mesh.uv, when primitives carry TEXCOORD_0, keeps the seams: one UV value per glTF vertex,
+// each triangle corner naming its glTF vertex's value. Welding by position can make touching
+// shells (lips, eyelids) share an edge three or more ways, or twice in one direction; the
+// vertices of such edges are then un-welded again, one copy per connected shell (and, where
+// that is not enough, per face), so that the cage is manifold along edges.
 struct GltfAsset {
     Mesh mesh;  // the cage: triangles over the welded vertices; source.path is the file
+    std::optional<GltfMaterial> material;      // the first primitive's material, when it has one
     std::vector<Index> cageVertexOf;           // per glTF vertex: its cage vertex
     std::vector<Index> primitiveFirstVertex;   // per primitive: its first glTF vertex
     std::uint32_t meshNode = 0;                // the node that instantiates the mesh
@@ -147,18 +176,46 @@ struct GltfAsset {
 // node that has both a mesh and a skin, else of the first node with a mesh; its primitives
 // (TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN, indexed or not) merged and welded; its skin
 // (JOINTS_0 / WEIGHTS_0, weights normalised), morph targets, every node and every clip
-// (LINEAR, STEP and CUBICSPLINE samplers). Run checkMesh on `mesh` as for readObj.
+// (LINEAR, STEP and CUBICSPLINE samplers), TEXCOORD_0 (float, or normalized unsigned byte or
+// short) and the base colour of the material (primitives with other materials: a warning).
+// Run checkMesh on `mesh` as for readObj.
 // Throws InputError naming the file and the element, numbered from 0 as in the JSON
 // ("FILE: accessor 3 (mesh 0 primitive 1 indices): ..."), for unreadable or invalid files, a
 // file without a mesh node, points or lines, indices, nodes or samplers out of range, joints
 // out of range in a slot of non-zero weight, accessors that overrun their buffer view,
 // non-finite positions, weights, matrices or keyframes, negative or all-zero weights,
-// decreasing keyframe times, a node hierarchy with a cycle. Channels on nodes that move
+// decreasing keyframe times, a node hierarchy with a cycle, TEXCOORD_0 of the wrong type or
+// count, a material, texture or image index out of range, a base colour texture image that
+// is missing, empty, or neither PNG nor JPEG. Channels on nodes that move
 // neither the skin nor the mesh are kept and simply change nothing.
 GltfAsset readGltf(const std::string& path);
 
 // The index of the first clip named `name`, or nullopt.
 std::optional<std::size_t> findClip(const GltfAsset& asset, std::string_view name);
+
+// ---------------------------------------------------------------------------------------
+// glTF output
+
+// A refined surface as psub writes it: faces over position vertices, with optional per-corner
+// UVs (the faces of a FaceVaryingTable: faceVerts name position vertices, faceValues UV values).
+struct GltfSurface {
+    std::span<const double> positions;          // 3 per vertex, finite
+    std::span<const double> normals;            // 3 per vertex, or empty: no NORMAL (zero ones: +z)
+    std::span<const std::uint32_t> faceOffsets;  // faceCount + 1, from 0; faces of >= 3 corners
+    std::span<const std::uint32_t> faceVerts;    // per corner: its vertex; counter-clockwise
+    std::span<const std::uint32_t> faceValues;   // per corner: its UV value; empty: no UVs
+    std::span<const double> uvValues;           // 2 per UV value
+};
+
+// The bytes of one glTF 2.0 asset holding `surface` as one triangle mesh (faces fan-
+// triangulated from their first corner) on one node: a glTF vertex per distinct (position
+// vertex, UV value) pair, with POSITION (bounded by min/max), NORMAL (normalised) and TEXCOORD_0 (float),
+// 32-bit indices, and `material` (base colour factor and texture, when given; the image is
+// stored in the buffer; without UVs the texture is left out, as glTF requires). binary: a .glb; otherwise a self-contained .gltf whose buffer is a
+// base64 data URI. `generator` goes into asset.generator. Passes the Khronos glTF Validator
+// with no error and no warning (tests/gltf_validator).
+std::string formatGltf(const GltfSurface& surface, const GltfMaterial* material, bool binary,
+                       const std::string& generator);
 
 // Poses a GltfAsset in world space: morph targets first, then linear blend skinning with
 // world(joint) * inverseBind(joint) (glTF ignores a skinned mesh's own node transform), or,
