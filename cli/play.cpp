@@ -16,6 +16,8 @@
 #include "psub/vulkan_evaluator.h"
 #endif
 #if PSUB_HAVE_RENDER
+#include "render.h"
+
 #include "psub/render.h"
 #endif
 
@@ -184,6 +186,7 @@ struct Playback {
     std::unique_ptr<Renderer> renderer;
     Camera camera;
     Image image;
+    Image textureImage;  // --texture, read before anything is refined or written
 #endif
     std::optional<Verifier> verifier;
     std::string device;
@@ -334,8 +337,12 @@ int prepare(Playback& p) {
         RenderOptions ro;
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
+        // UVs do not move with the animation: refined once, here.
+        std::optional<TextureData> texture;
+        if (!o.texture.empty()) texture = textureData(std::move(p.textureImage), p.animated.mesh, r.uv);
         p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro,
-                                                Polygons{cage.vertexCount, cage.offsets, cage.verts});
+                                                Polygons{cage.vertexCount, cage.offsets, cage.verts},
+                                                texture ? texture->surfaceTexture() : SurfaceTexture{});
         // One camera for the whole clip: the box of the control points over one period.
         Box box;
         for (int k = 0; k < 8; ++k) {
@@ -439,6 +446,8 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addSize(pl, "--size", o.width, o.height, "picture size for --render", 1, "1280x720");
     addChoice(pl, "--wireframe", o.wireframe, kPlayWireframe, "with --render: none, refined or control", "none");
     addSamples(pl, o.samples);
+    pl->add_option("--texture", o.texture,
+                   "with --render: base-colour image (.png or .jpg) sampled with the mesh's refined UVs");
     pl->add_flag("--verify", o.verify,
                  "check every frame against refining its control points from scratch with the rule oracle "
                  "(slow; outside the timings)");
@@ -452,13 +461,24 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
                "Examples:\n  psub play data/spot_control_mesh.obj --levels 5 --frames 300 --anim twist\n"
                "  psub play data/cow.obj --levels 4 --backend vulkan --json\n"
                "  psub play data/cube.obj --levels 6 --frames 60 --render frames/ --size 640x360\n"
+               "  psub play data/spot_control_mesh_uv.obj --levels 4 --frames 60 --render frames/ --texture data/spot_texture.png\n"
                "  psub play data/two_bone_cylinder.glb --anim bend --levels 4 --verify");
     return pl;
 }
 
 int runPlay(const PlayOptions& o) {
+    if (!o.texture.empty() && o.renderDir.empty()) {
+        std::fprintf(stderr, "psub play: --texture applies with --render only\n");
+        return 2;
+    }
     Animated animated = loadAnimated(o);
     Playback p(o, animated);
+#if PSUB_HAVE_RENDER
+    if (!o.texture.empty()) {
+        p.textureImage = readTextureImage(o.texture);
+        if (animated.mesh.uv.empty()) textureData(Image{}, animated.mesh, FaceVaryingTable{});  // throws: no UVs
+    }
+#endif
     refineAnimated(p);
     if (p.rendering()) makeOutputDirectory(o.renderDir);
     if (const int status = prepare(p)) return status;
