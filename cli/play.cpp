@@ -476,7 +476,7 @@ int runPlay(const PlayOptions& o) {
 #if PSUB_HAVE_RENDER
     if (!o.texture.empty()) {
         p.textureImage = readTextureImage(o.texture);
-        if (animated.mesh.uv.empty()) textureData(Image{}, animated.mesh, FaceVaryingTable{});  // throws: no UVs
+        requireUvs(animated.mesh);
     }
 #endif
     refineAnimated(p);

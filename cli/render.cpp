@@ -115,10 +115,14 @@ Image readTextureImage(const std::string& imagePath) {
     }
 }
 
-TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table) {
+void requireUvs(const Mesh& mesh) {
     if (mesh.uv.empty())
         throw InputError(mesh.source.path + ": --texture needs texture coordinates (OBJ `vt` and `f v/vt`, glTF "
                          "TEXCOORD_0) and this mesh has none");
+}
+
+TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table) {
+    requireUvs(mesh);
     if (table.empty() || table.width != 2 || mesh.uv.width != 2)
         throw InputError(mesh.source.path + ": --texture: the refinement produced no UVs for this mesh");
     TextureData t;
@@ -220,7 +224,7 @@ int runRender(const RenderCommandOptions& o) {
     Image image;
     if (!o.texture.empty()) {
         image = readTextureImage(o.texture);
-        if (mesh.uv.empty()) textureData(Image{}, mesh, FaceVaryingTable{});  // throws: no UVs
+        requireUvs(mesh);
     }
     try {
         VulkanContext context;

@@ -51,6 +51,9 @@ struct TextureData {
 // or broken.
 Image readTextureImage(const std::string& imagePath);
 
+// InputError naming the mesh's file when it has no UVs for --texture.
+void requireUvs(const Mesh& mesh);
+
 // The image and `mesh`'s UVs refined through `table`; an OBJ's `vt` (v up) becomes v down.
 // InputError naming the mesh's file when it has no UVs (or `table` is empty).
 TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table);
