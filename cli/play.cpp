@@ -17,6 +17,8 @@
 #include "psub/vulkan_evaluator.h"
 #endif
 #if PSUB_HAVE_RENDER
+#include "render.h"
+
 #include "psub/render.h"
 #endif
 
@@ -189,6 +191,7 @@ struct Playback {
     std::unique_ptr<Renderer> renderer;
     Camera camera;
     Image image;
+    Image textureImage;  // --texture, read before anything is refined or written
 #endif
     std::optional<Verifier> verifier;
     std::string device;
@@ -316,6 +319,14 @@ double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& co
 // finest points come mostly from the fallback it is slower; docs/tiled.md).
 void chooseForm(Playback& p) {
     const Refinement& r = p.refinement;
+    if (!p.o.texture.empty()) {
+        // Textured faces index the canonical order; the tiled form writes its drawing order.
+        if (p.o.form == kFormTiled)
+            throw InputError(p.o.input + ": --form tiled cannot draw --texture (the tiled form writes its drawing order; textured faces index the canonical one)");
+        p.form = p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
+        p.formReason = "textured drawing uses the canonical order";
+        return;
+    }
     if (p.o.form != kFormAuto) {
         p.form = p.o.form == kFormTiled ? TableForm::Tiled
                  : p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
@@ -376,7 +387,7 @@ int prepare(Playback& p) {
     // A Vulkan evaluator's results are drawn where they are, with no read-back (unless --verify
     // reads them anyway); other backends' are uploaded by the renderer.
     const auto* onDevice = dynamic_cast<const VulkanEvaluator*>(p.evaluator.get());
-    p.drawsKept = p.rendering() && onDevice && !p.verifier;
+    p.drawsKept = p.rendering() && onDevice && !p.verifier && o.texture.empty();
 #endif
     p.readBack = p.verifier || (p.rendering() && !p.drawsKept) || p.evaluator->resultsOnHost();
 #if PSUB_HAVE_RENDER
@@ -385,9 +396,17 @@ int prepare(Playback& p) {
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
         const Polygons control{cage.vertexCount, cage.offsets, cage.verts};
-        // The evaluator's surface() indexes the order it writes (the tiled form's drawing order).
-        p.renderer = p.drawsKept ? std::make_unique<Renderer>(*p.context, *onDevice, ro, control)
-                                 : std::make_unique<Renderer>(*p.context, polygonsOf(p.evaluator->surface()), ro, control);
+        if (!o.texture.empty()) {
+            // UVs do not move with the animation: refined once, here. Their faces index the
+            // canonical order (chooseForm keeps the tiled form away from textured drawing).
+            TextureData texture = textureData(std::move(p.textureImage), p.animated.mesh, r.uv);
+            p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro, control,
+                                                    texture.surfaceTexture());
+        } else {
+            // The evaluator's surface() indexes the order it writes (the tiled form's drawing order).
+            p.renderer = p.drawsKept ? std::make_unique<Renderer>(*p.context, *onDevice, ro, control)
+                                     : std::make_unique<Renderer>(*p.context, polygonsOf(p.evaluator->surface()), ro, control);
+        }
         // One camera for the whole clip: the box of the control points over one period.
         Box box;
         for (int k = 0; k < 8; ++k) {
@@ -504,6 +523,8 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addSize(pl, "--size", o.width, o.height, "picture size for --render", 1, "1280x720");
     addChoice(pl, "--wireframe", o.wireframe, kPlayWireframe, "with --render: none, refined or control", "none");
     addSamples(pl, o.samples);
+    pl->add_option("--texture", o.texture,
+                   "with --render: base-colour image (.png or .jpg) sampled with the mesh's refined UVs");
     pl->add_flag("--verify", o.verify,
                  "check every frame against refining its control points from scratch with the rule oracle "
                  "(slow; outside the timings)");
@@ -517,13 +538,24 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
                "Examples:\n  psub play data/spot_control_mesh.obj --levels 5 --frames 300 --anim twist\n"
                "  psub play data/cow.obj --levels 4 --backend vulkan --json\n"
                "  psub play data/cube.obj --levels 6 --frames 60 --render frames/ --size 640x360\n"
+               "  psub play data/spot_control_mesh_uv.obj --levels 4 --frames 60 --render frames/ --texture data/spot_texture.png\n"
                "  psub play data/two_bone_cylinder.glb --anim bend --levels 4 --verify");
     return pl;
 }
 
 int runPlay(const PlayOptions& o) {
+    if (!o.texture.empty() && o.renderDir.empty()) {
+        std::fprintf(stderr, "psub play: --texture applies with --render only\n");
+        return 2;
+    }
     Animated animated = loadAnimated(o);
     Playback p(o, animated);
+#if PSUB_HAVE_RENDER
+    if (!o.texture.empty()) {
+        p.textureImage = readTextureImage(o.texture);
+        requireUvs(animated.mesh);
+    }
+#endif
     refineAnimated(p);
     if (p.rendering()) makeOutputDirectory(o.renderDir);
     if (const int status = prepare(p)) return status;

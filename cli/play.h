@@ -34,6 +34,7 @@ struct PlayOptions {
     std::uint32_t width = 1280, height = 720;
     int wireframe = 0;          // 0 none, 1 refined, 2 control (psub::Wireframe)
     std::uint32_t samples = 4;  // MSAA samples per pixel of --render
+    std::string texture;        // with --render: base-colour image sampled with the mesh's UVs
     bool verify = false;        // compare each frame with the rule oracle from scratch
     bool json = false;
     int form = 0;               // CPU table form: 0 auto, 1 per-level, 2 factorized, 3 tiled (kPlayForms)

@@ -14,8 +14,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <map>
+#include <optional>
 #include <vector>
 
 namespace psub::cli {
@@ -71,6 +74,7 @@ Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, c
     Refinement r = refine(mesh, checked.connectivity, options);
     Drawable d;
     d.surface = std::move(r.surface);
+    d.uv = std::move(r.uv);
     d.what = "P-S, " + std::to_string(levels) + (levels == 1 ? " step" : " steps");
     const std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     evaluate(context, backend, r.perLevel, control, d);
@@ -95,6 +99,48 @@ Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, i
     return d;
 }
 
+SurfaceTexture TextureData::surfaceTexture() const {
+    SurfaceTexture t;
+    t.faceOffsets = table->faceOffsets, t.faceVerts = table->faceVerts, t.faceValues = table->faceValues;
+    t.uv = uv;
+    t.image = &image;
+    return t;
+}
+
+Image readTextureImage(const std::string& imagePath) {
+    try {
+        return readImage(imagePath);
+    } catch (const std::runtime_error& e) {
+        throw InputError(e.what());
+    }
+}
+
+void requireUvs(const Mesh& mesh) {
+    if (mesh.uv.empty())
+        throw InputError(mesh.source.path + ": --texture needs texture coordinates (OBJ `vt` and `f v/vt`, glTF "
+                         "TEXCOORD_0) and this mesh has none");
+}
+
+TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table) {
+    requireUvs(mesh);
+    if (table.empty() || table.width != 2 || mesh.uv.width != 2)
+        throw InputError(mesh.source.path + ": --texture: the refinement produced no UVs for this mesh");
+    TextureData t;
+    t.image = std::move(image);
+    t.table = &table;
+    const std::vector<float> control(mesh.uv.values.begin(), mesh.uv.values.end());
+    t.uv.resize(2 * std::size_t(table.valueCount()));
+    evaluateFaceVarying<float>(table, control, t.uv);
+    std::string extension = std::filesystem::path(mesh.source.path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (extension == ".obj")  // OBJ's v runs up from the image's bottom row; the renderer's down from the top
+        for (std::size_t i = 1; i < t.uv.size(); i += 2) t.uv[i] = 1.0f - t.uv[i];
+    for (std::size_t i = 0; i < t.uv.size(); ++i)
+        if (!std::isfinite(t.uv[i]))
+            throw InputError(mesh.source.path + ": refined UV " + std::to_string(i / 2 + 1) + " is not finite");
+    return t;
+}
+
 namespace {
 
 double median(std::vector<double> values) {
@@ -102,11 +148,13 @@ double median(std::vector<double> values) {
     return values.empty() ? 0.0 : values[values.size() / 2];
 }
 
-int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh, const Drawable& d) {
+int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh, const Drawable& d,
+                 const TextureData* texture) {
     RenderOptions ro;
     ro.width = o.width, ro.height = o.height, ro.wireframe = o.wireframe, ro.samples = o.samples;
     const Polygons control{mesh.faces.vertexCount, mesh.faces.offsets, mesh.faces.verts};
-    Renderer renderer(context, polygonsOf(d.surface), ro, control);
+    Renderer renderer(context, polygonsOf(d.surface), ro, control,
+                      texture ? texture->surfaceTexture() : SurfaceTexture{});
     const std::vector<float> controlPositions(mesh.positions.begin(), mesh.positions.end());
     if (o.wireframe == Wireframe::Control) renderer.setControlPositions(controlPositions);
     // What is drawn fills the picture: the surface, and the cage when it is drawn.
@@ -123,8 +171,9 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
     }
     writePng(o.output, image);
     // The summary goes to stderr when the PNG itself went to standard output (-o -).
-    std::fprintf(o.output == "-" ? stderr : stdout, "%s: %ux%u, %u faces (%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
+    std::fprintf(o.output == "-" ? stderr : stdout, "%s: %ux%u, %u faces (%s%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
                 o.output.c_str(), o.width, o.height, std::uint32_t(d.surface.faceOffsets.size() - 1), d.what.c_str(),
+                texture ? ("; textured with " + o.texture).c_str() : "",
                 renderer.triangleCount(),
                 renderer.lineCount() ? (" + " + std::to_string(renderer.lineCount()) + " lines").c_str() : "",
                 context.deviceName().c_str(), median(renderMs), median(readbackMs),
@@ -147,25 +196,43 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addChoice(re, "--backend", o.backend, kCpuOrVulkan,
               "where positions and normals are evaluated: cpu or vulkan (drawing is always Vulkan)", "cpu");
     addInteger(re, "--frames", o.frames, 1, 10000, "draw this many times and report the median render and readback times", 1);
+    re->add_option("--texture", o.texture,
+                   "base-colour image (.png or .jpg) sampled with the mesh's refined UVs (OBJ vt; --scheme ps)");
     re->footer("Needs a Vulkan device (Mesa's lavapipe will do; no display). The camera looks from the front,\n"
                "a bit right and above, and frames what is drawn (the surface, and the cage with\n"
                "--wireframe control).\n"
+               "Textures: --texture IMAGE colours the surface with IMAGE (PNG or JPEG, mip-mapped, repeated\n"
+               "outside [0, 1]) at the mesh's UVs, refined with the positions; each face keeps the UVs of its\n"
+               "own island, so seams do not smear. A mesh without UVs is refused; an OBJ with UVs and no\n"
+               "--texture is drawn in one colour.\n"
                "Examples:\n  psub render data/cube.obj -o cube.png --levels 4\n"
                "  psub render data/spot_control_mesh.obj -o spot.png --levels 4 --wireframe control --size 800x800\n"
-               "  psub render data/cow.obj -o cow_cc.png --levels 2 --scheme cc --wireframe refined");
+               "  psub render data/cow.obj -o cow_cc.png --levels 2 --scheme cc --wireframe refined\n"
+               "  psub render data/spot_control_mesh_uv.obj -o spot.png --levels 6 --texture data/spot_texture.png");
     return re;
 }
 
 int runRender(const RenderCommandOptions& o) {
+    if (!o.texture.empty() && o.scheme != Scheme::PS) {
+        std::fprintf(stderr, "psub render: --texture applies to --scheme ps only\n");
+        return 2;
+    }
     CheckedMesh checked;
     const Mesh mesh = loadChecked(o.input, checked);
     checkCoordinateRange(mesh, Precision::Float);
     guardFaces(mesh, checked.connectivity, o);
+    Image image;
+    if (!o.texture.empty()) {
+        image = readTextureImage(o.texture);
+        requireUvs(mesh);
+    }
     try {
         VulkanContext context;
         const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels)
                                                   : drawableCC(context, o.backend, mesh, o.levels);
-        return drawAndWrite(context, o, mesh, d);
+        std::optional<TextureData> texture;
+        if (!o.texture.empty()) texture = textureData(std::move(image), mesh, d.uv);
+        return drawAndWrite(context, o, mesh, d, texture ? &*texture : nullptr);
     } catch (const VulkanError& e) {
         std::fprintf(stderr, "psub: error: render: %s\n", e.what());
     } catch (const InputError&) {

@@ -25,6 +25,7 @@ struct RenderCommandOptions {
     Backend backend = Backend::Cpu;  // where the surface is evaluated: Cpu or Vulkan
     int frames = 1;                  // draws timed (the last one is written)
     std::uint32_t samples = 4;       // MSAA samples per pixel
+    std::string texture;             // base-colour image (.png, .jpg) sampled with the mesh's UVs
 };
 
 // A refined surface with positions and normals, ready to draw.
@@ -32,7 +33,30 @@ struct Drawable {
     SurfaceTable surface;
     std::vector<float> positions, normals;
     std::string what;  // "P-S, 4 steps" and where it was evaluated
+    FaceVaryingTable uv;  // the refined UVs' table (P-S; empty when the mesh has none)
 };
+
+// A base-colour texture ready for the Renderer: the image and the refined UVs per corner of
+// the finest faces (psub::SurfaceTexture points into this; keep it alive through the
+// Renderer's constructor).
+struct TextureData {
+    Image image;
+    std::vector<float> uv;  // 2 floats per refined UV value, glTF's convention (v down)
+    const FaceVaryingTable* table = nullptr;
+
+    SurfaceTexture surfaceTexture() const;
+};
+
+// Reads the image at `imagePath` (PNG or JPEG). InputError naming the file when it is missing
+// or broken.
+Image readTextureImage(const std::string& imagePath);
+
+// InputError naming the mesh's file when it has no UVs for --texture.
+void requireUvs(const Mesh& mesh);
+
+// The image and `mesh`'s UVs refined through `table`; an OBJ's `vt` (v up) becomes v down.
+// InputError naming the mesh's file when it has no UVs (or `table` is empty).
+TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table);
 
 // P-S after `levels` steps (after the paired method when needed) of a checked mesh, evaluated
 // on `backend` (Cpu or Vulkan on `context`).

@@ -8,14 +8,19 @@
 
 #include "device.h"
 #include "resources.h"
+#include "texture.h"
 
 #include "render_lines_frag.spv.h"
 #include "render_lines_vert.spv.h"
 #include "render_mesh_frag.spv.h"
 #include "render_mesh_vert.spv.h"
+#include "render_textured_frag.spv.h"
+#include "render_textured_vert.spv.h"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
+#include <cstddef>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -29,14 +34,25 @@ namespace psub {
 namespace {
 
 using namespace vulkan;
+using render_detail::DeviceTexture;
+using render_detail::deviceMemoryType;
 using Clock = std::chrono::steady_clock;
 
 // Mirrors shaders/render_frame.glsl (std140).
 struct FrameUniforms {
     float view[16], projection[16];
-    float surfaceColour[4], lineColour[4], keyLight[4], params[4];
+    float surfaceColour[4], lineColour[4], keyLight[4], params[4], baseColourFactor[4];
 };
-static_assert(sizeof(FrameUniforms) == 192);
+static_assert(sizeof(FrameUniforms) == 208);
+
+// A textured corner (render_textured.vert's vertex input): its surface vertex and UV.
+struct TexturedCorner {
+    std::uint32_t vertex;
+    float u, v;
+};
+static_assert(sizeof(TexturedCorner) == 12);
+
+enum class PipelineKind { Mesh, Textured, Lines };
 
 // Lines are pulled this fraction of their distance towards the eye (render_lines.vert).
 constexpr float kLinePull = 0.0015f;
@@ -66,6 +82,22 @@ void checkPolygons(Polygons p, const char* what) {
         if (v >= p.vertexCount)
             throw std::invalid_argument(std::string("Renderer: ") + what + " corner " + std::to_string(v) +
                                         " is beyond its " + std::to_string(p.vertexCount) + " vertices");
+}
+
+// Throws std::invalid_argument unless `t`'s faces are consistent CSR polygons over
+// `vertexCount` vertices with a value of finite UVs per corner.
+void checkTexture(const SurfaceTexture& t, std::uint32_t vertexCount) {
+    checkPolygons({vertexCount, t.faceOffsets, t.faceVerts}, "texture faces");
+    if (t.faceValues.size() != t.faceVerts.size())
+        throw std::invalid_argument("Renderer: texture faces have " + std::to_string(t.faceVerts.size()) +
+                                    " corners but " + std::to_string(t.faceValues.size()) + " UV values");
+    if (t.uv.size() % 2 != 0) throw std::invalid_argument("Renderer: texture UVs are not pairs of floats");
+    for (std::uint32_t value : t.faceValues)
+        if (value >= t.uv.size() / 2)
+            throw std::invalid_argument("Renderer: texture corner value " + std::to_string(value) + " is beyond its " +
+                                        std::to_string(t.uv.size() / 2) + " UVs");
+    for (float x : t.uv)
+        if (!std::isfinite(x)) throw std::invalid_argument("Renderer: texture UVs are not all finite");
 }
 
 // Every face of 3 or more corners as a fan of triangles from its first corner.
@@ -100,17 +132,6 @@ std::vector<std::uint32_t> uniqueEdges(Polygons p) {
 
 void toFloats(Rgba c, float out[4]) {
     out[0] = float(c.r) / 255.0f, out[1] = float(c.g) / 255.0f, out[2] = float(c.b) / 255.0f, out[3] = float(c.a) / 255.0f;
-}
-
-std::uint32_t deviceMemoryType(const VulkanContext::Impl& c, std::uint32_t bits) {
-    std::uint32_t fallback = ~0u;
-    for (std::uint32_t i = 0; i < c.memory.memoryTypeCount; ++i) {
-        if (!(bits & (1u << i))) continue;
-        if (c.memory.memoryTypes[i].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) return i;
-        if (fallback == ~0u) fallback = i;
-    }
-    if (fallback == ~0u) throw VulkanError(std::string("no memory type for an image on ") + c.properties.deviceName);
-    return fallback;
 }
 
 void destroyImage(const VulkanContext::Impl& c, Image2D& image) {
@@ -208,6 +229,10 @@ struct Renderer::Impl {
     VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
     std::uint32_t vertexCount = 0, controlVertexCount = 0, triangleIndices = 0, lineIndices = 0;
     Buffer positions, normals, triangles, lines, controlPositions, uniforms, readback;
+    bool textured = false;
+    std::array<float, 4> baseColourFactor{1, 1, 1, 1};
+    Buffer corners;  // textured: a TexturedCorner per face corner; `triangles` index them
+    DeviceTexture texture;
     Image2D colour, multisampled, depth;  // colour: single-sample, read back; multisampled: when samples > 1
     VkRenderPass renderPass = VK_NULL_HANDLE;
     VkFramebuffer framebuffer = VK_NULL_HANDLE;
@@ -215,7 +240,7 @@ struct Renderer::Impl {
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
-    VkPipeline meshPipeline = VK_NULL_HANDLE, linePipeline = VK_NULL_HANDLE;
+    VkPipeline meshPipeline = VK_NULL_HANDLE, linePipeline = VK_NULL_HANDLE;  // mesh: flat or textured
     VkCommandPool commandPool = VK_NULL_HANDLE;
     VkCommandBuffer renderCommands = VK_NULL_HANDLE, readbackCommands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
@@ -228,11 +253,12 @@ struct Renderer::Impl {
     Impl(VulkanContext::Impl& c, const RenderOptions& o) : context(c), options(o) {}
     ~Impl();
 
-    void createBuffers(Polygons surface, Polygons control);
+    void createBuffers(Polygons surface, Polygons control, const SurfaceTexture& surfaceTexture);
     void createImages();
     void createRenderPass();
     void createDescriptors();
-    VkPipeline createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment, bool mesh);
+    VkPipeline createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment,
+                              PipelineKind kind);
     void recordCommands();
     void writeUniforms(const Camera& camera);
 };
@@ -249,13 +275,29 @@ Renderer::Impl::~Impl() {
     if (framebuffer) vkDestroyFramebuffer(d, framebuffer, nullptr);
     if (renderPass) vkDestroyRenderPass(d, renderPass, nullptr);
     for (Image2D* image : {&colour, &multisampled, &depth}) destroyImage(context, *image);
-    for (Buffer* b : {&positions, &normals, &triangles, &lines, &controlPositions, &uniforms, &readback})
+    for (Buffer* b : {&positions, &normals, &triangles, &lines, &controlPositions, &uniforms, &readback, &corners})
         destroyBuffer(context, *b);
+    render_detail::destroyTexture(context, texture);
 }
 
-void Renderer::Impl::createBuffers(Polygons surface, Polygons control) {
+// Textured: the corners' buffer, and fan triangles over the corners (not the vertices).
+void Renderer::Impl::createBuffers(Polygons surface, Polygons control, const SurfaceTexture& surfaceTexture) {
     const VulkanContext::Impl& c = context;
-    const std::vector<std::uint32_t> fan = fanTriangles(surface);
+    std::vector<std::uint32_t> cornerIds;
+    if (textured) {
+        cornerIds.resize(surfaceTexture.faceVerts.size());
+        for (std::uint32_t i = 0; i < cornerIds.size(); ++i) cornerIds[i] = i;
+        corners = createBuffer(c, sizeof(TexturedCorner) * cornerIds.size(), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT,
+                               Memory::Device, true);
+        auto* corner = static_cast<TexturedCorner*>(corners.mapped);
+        for (std::size_t i = 0; i < cornerIds.size(); ++i) {
+            const std::uint32_t value = surfaceTexture.faceValues[i];
+            corner[i] = {surfaceTexture.faceVerts[i], surfaceTexture.uv[2 * value], surfaceTexture.uv[2 * value + 1]};
+        }
+    }
+    const Polygons drawn = textured ? Polygons{std::uint32_t(cornerIds.size()), surfaceTexture.faceOffsets, cornerIds}
+                                    : surface;
+    const std::vector<std::uint32_t> fan = fanTriangles(drawn);
     std::vector<std::uint32_t> edges;
     if (options.wireframe == Wireframe::Refined) edges = uniqueEdges(surface);
     if (options.wireframe == Wireframe::Control) edges = uniqueEdges(control);
@@ -264,8 +306,9 @@ void Renderer::Impl::createBuffers(Polygons surface, Polygons control) {
     triangleIndices = std::uint32_t(fan.size());
     lineIndices = std::uint32_t(edges.size());
     const VkBufferUsageFlags vertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;
-    positions = createBuffer(c, 12ull * vertexCount, vertexUsage, Memory::Device, true);
-    normals = createBuffer(c, 12ull * vertexCount, vertexUsage, Memory::Device, true);
+    const VkBufferUsageFlags pulled = textured ? VK_BUFFER_USAGE_STORAGE_BUFFER_BIT : 0;  // render_textured.vert
+    positions = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
+    normals = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
     if (options.wireframe == Wireframe::Control)
         controlPositions = createBuffer(c, 12ull * controlVertexCount, vertexUsage, Memory::Device, true);
     triangles = createBuffer(c, 4ull * fan.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
@@ -360,21 +403,29 @@ void Renderer::Impl::createRenderPass() {
     VK_CHECK(vkCreateRenderPass(context.device, &info, nullptr, &renderPass));
 }
 
+// Binding 0: the frame's uniforms. Textured, also (render_textured.*) 1: positions, 2:
+// normals (storage buffers), 3: the texture and its sampler.
 void Renderer::Impl::createDescriptors() {
     const VkDevice d = context.device;
-    const VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
-                                               VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+    const VkDescriptorSetLayoutBinding bindings[4] = {
+        {0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+        {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT, nullptr},
+        {2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT, nullptr},
+        {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr}};
+    const std::uint32_t bindingCount = textured ? 4 : 1;
     VkDescriptorSetLayoutCreateInfo setInfo{};
     setInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-    setInfo.bindingCount = 1;
-    setInfo.pBindings = &binding;
+    setInfo.bindingCount = bindingCount;
+    setInfo.pBindings = bindings;
     VK_CHECK(vkCreateDescriptorSetLayout(d, &setInfo, nullptr, &setLayout));
-    const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
+    const VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                           {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2},
+                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
     VkDescriptorPoolCreateInfo poolInfo{};
     poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
     poolInfo.maxSets = 1;
-    poolInfo.poolSizeCount = 1;
-    poolInfo.pPoolSizes = &size;
+    poolInfo.poolSizeCount = textured ? 3 : 1;
+    poolInfo.pPoolSizes = sizes;
     VK_CHECK(vkCreateDescriptorPool(d, &poolInfo, nullptr, &descriptorPool));
     VkDescriptorSetAllocateInfo allocate{};
     allocate.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
@@ -382,14 +433,21 @@ void Renderer::Impl::createDescriptors() {
     allocate.descriptorSetCount = 1;
     allocate.pSetLayouts = &setLayout;
     VK_CHECK(vkAllocateDescriptorSets(d, &allocate, &descriptorSet));
-    const VkDescriptorBufferInfo bufferInfo{uniforms.buffer, 0, sizeof(FrameUniforms)};
-    VkWriteDescriptorSet write{};
-    write.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-    write.dstSet = descriptorSet;
-    write.descriptorCount = 1;
-    write.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-    write.pBufferInfo = &bufferInfo;
-    vkUpdateDescriptorSets(d, 1, &write, 0, nullptr);
+    const VkDescriptorBufferInfo bufferInfos[3] = {{uniforms.buffer, 0, sizeof(FrameUniforms)},
+                                                   {positions.buffer, 0, VK_WHOLE_SIZE},
+                                                   {normals.buffer, 0, VK_WHOLE_SIZE}};
+    const VkDescriptorImageInfo imageInfo{texture.sampler, texture.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet writes[4]{};
+    for (std::uint32_t i = 0; i < 4; ++i) {
+        writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        writes[i].dstSet = descriptorSet;
+        writes[i].dstBinding = i;
+        writes[i].descriptorCount = 1;
+        writes[i].descriptorType = bindings[i].descriptorType;
+        if (i < 3) writes[i].pBufferInfo = &bufferInfos[i];
+    }
+    writes[3].pImageInfo = &imageInfo;
+    vkUpdateDescriptorSets(d, bindingCount, writes, 0, nullptr);
     VkPipelineLayoutCreateInfo layoutInfo{};
     layoutInfo.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
     layoutInfo.setLayoutCount = 1;
@@ -397,10 +455,12 @@ void Renderer::Impl::createDescriptors() {
     VK_CHECK(vkCreatePipelineLayout(d, &layoutInfo, nullptr, &pipelineLayout));
 }
 
-// mesh: triangles with positions (binding 0) and normals (binding 1), depth written.
-// Otherwise lines with positions only, depth tested (less or equal) but not written.
+// Mesh: triangles with positions (binding 0) and normals (binding 1), depth written.
+// Textured: triangles of corners (binding 0: vertex index, UV), depth written. Lines:
+// positions only, depth tested (less or equal) but not written.
 VkPipeline Renderer::Impl::createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment,
-                                          bool mesh) {
+                                          PipelineKind kind) {
+    const bool mesh = kind != PipelineKind::Lines;
     const VkDevice d = context.device;
     VkShaderModule modules[2] = {createModule(d, vertex), VK_NULL_HANDLE};
     VkPipeline pipeline = VK_NULL_HANDLE;
@@ -417,12 +477,17 @@ VkPipeline Renderer::Impl::createPipeline(std::span<const std::uint32_t> vertex,
                                                              {1, vertexStride, VK_VERTEX_INPUT_RATE_VERTEX}};
         const VkVertexInputAttributeDescription attributes[2] = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
                                                                  {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0}};
+        const VkVertexInputBindingDescription cornerBinding{0, sizeof(TexturedCorner), VK_VERTEX_INPUT_RATE_VERTEX};
+        const VkVertexInputAttributeDescription cornerAttributes[2] = {
+            {0, 0, VK_FORMAT_R32_UINT, offsetof(TexturedCorner, vertex)},
+            {1, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(TexturedCorner, u)}};
+        const bool pulled = kind == PipelineKind::Textured;
         VkPipelineVertexInputStateCreateInfo input{};
         input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-        input.vertexBindingDescriptionCount = mesh ? 2 : 1;
-        input.pVertexBindingDescriptions = bindings;
+        input.vertexBindingDescriptionCount = pulled ? 1 : mesh ? 2 : 1;
+        input.pVertexBindingDescriptions = pulled ? &cornerBinding : bindings;
         input.vertexAttributeDescriptionCount = mesh ? 2 : 1;
-        input.pVertexAttributeDescriptions = attributes;
+        input.pVertexAttributeDescriptions = pulled ? cornerAttributes : attributes;
         VkPipelineInputAssemblyStateCreateInfo assembly{};
         assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
         assembly.topology = mesh ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST : VK_PRIMITIVE_TOPOLOGY_LINE_LIST;
@@ -516,7 +581,10 @@ void Renderer::Impl::recordCommands() {
     if (triangleIndices) {
         const VkBuffer meshBuffers[2] = {drawnPositions, drawnNormals};
         vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, meshPipeline);
-        vkCmdBindVertexBuffers(renderCommands, 0, 2, meshBuffers, zero);
+        if (textured)
+            vkCmdBindVertexBuffers(renderCommands, 0, 1, &corners.buffer, zero);
+        else
+            vkCmdBindVertexBuffers(renderCommands, 0, 2, meshBuffers, zero);
         vkCmdBindIndexBuffer(renderCommands, triangles.buffer, 0, VK_INDEX_TYPE_UINT32);
         vkCmdDrawIndexed(renderCommands, triangleIndices, 1, 0, 0, 0);
     }
@@ -555,10 +623,12 @@ void Renderer::Impl::writeUniforms(const Camera& camera) {
     const float length = std::sqrt(key[0] * key[0] + key[1] * key[1] + key[2] * key[2]);
     for (int i = 0; i < 3; ++i) u.keyLight[i] = key[i] / length;
     u.params[0] = kLinePull;
+    std::memcpy(u.baseColourFactor, baseColourFactor.data(), sizeof u.baseColourFactor);
     std::memcpy(uniforms.mapped, &u, sizeof u);
 }
 
-Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control)
+Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control,
+                   const SurfaceTexture& texture)
     : impl_(std::make_unique<Impl>(contextInternals(context), options)) {
     Impl& r = *impl_;
     const VulkanContext::Impl& c = r.context;
@@ -568,6 +638,7 @@ Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions
                                     std::to_string(options.height) + " is outside 1.." + std::to_string(maxSize));
     checkPolygons(surface, "surface");
     checkPolygons(control, "control");
+    if (!texture.empty()) checkTexture(texture, surface.vertexCount);
     if (options.wireframe == Wireframe::Control && control.offsets.size() < 2)
         throw std::invalid_argument("Renderer: Wireframe::Control needs the control faces");
     if (!queueHasGraphics(c))
@@ -577,12 +648,18 @@ Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions
     r.controlVertexCount = control.vertexCount;
     r.samples = chooseSamples(c.properties.limits, std::max(1u, options.samples));
     r.options.samples = std::uint32_t(r.samples);
-    r.createBuffers(surface, control);
+    r.textured = !texture.empty();
+    r.baseColourFactor = texture.factor;
+    r.createBuffers(surface, control, texture);
     if (!r.drawsKept) r.drawnPositions = r.positions.buffer, r.drawnNormals = r.normals.buffer;
+    if (r.textured) r.texture = render_detail::uploadTexture(r.context, *texture.image);
     r.createImages();
     r.createDescriptors();
-    r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, true);
-    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, false);
+    r.meshPipeline = r.textured
+                         ? r.createPipeline(psub_spirv_render_textured_vert, psub_spirv_render_textured_frag,
+                                            PipelineKind::Textured)
+                         : r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, PipelineKind::Mesh);
+    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, PipelineKind::Lines);
     r.recordCommands();
 }
 

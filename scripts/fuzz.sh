@@ -33,4 +33,11 @@ echo "fuzz: fuzz_options for ${seconds}s"
 build-fuzz/tests/fuzz/fuzz_options -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
   -print_final_stats=1 -dict=tests/fuzz/options.dict -artifact_prefix=build-fuzz/artifacts/fuzz_options- \
   build-fuzz/corpus/fuzz_options tests/fuzz/options-seeds 2>&1 | tail -n 12
+# Texture decoding (stb_image: PNG and JPEG).
+cmake --build build-fuzz -j "$(nproc)" --target fuzz_image
+mkdir -p build-fuzz/corpus/fuzz_image
+echo "fuzz: fuzz_image for ${seconds}s"
+build-fuzz/tests/fuzz/fuzz_image -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
+  -print_final_stats=1 -artifact_prefix=build-fuzz/artifacts/fuzz_image- \
+  build-fuzz/corpus/fuzz_image tests/fuzz/image-seeds 2>&1 | tail -n 12
 echo "fuzz: no crash, leak or timeout"

@@ -1,4 +1,5 @@
 // psub/image.h: pictures on the CPU: RGBA pixels, PNG files (libpng, written atomically),
+// PNG and JPEG decoding (stb_image, for textures),
 // captions (stb_easy_font) and panels side by side. No Vulkan: the renderer (psub/render.h)
 // and the analysis plots (psub/analysis.h) both draw into these. Link psub::image.
 #pragma once
@@ -37,6 +38,20 @@ void writePng(const std::string& path, const Image& image);
 
 // Reads an 8-bit RGB or RGBA PNG (for tests and tools); std::runtime_error naming `path`.
 Image readPng(const std::string& path);
+
+// The largest image decodeImage accepts: each side at most kMaxImageSide pixels and at most
+// kMaxImagePixels pixels in all (256 MiB of RGBA).
+inline constexpr std::uint32_t kMaxImageSide = 16384;
+inline constexpr std::uint64_t kMaxImagePixels = 64ull * 1024 * 1024;
+
+// A PNG or JPEG image (8-bit; grey, grey + alpha and RGB gain an opaque alpha) decoded with
+// stb_image into RGBA. `name` (the file, or "FILE.glb: image 0") starts every error message:
+// std::runtime_error for bytes that are not a PNG or JPEG, are broken, or exceed the limits.
+Image decodeImage(std::span<const std::uint8_t> bytes, const std::string& name);
+
+// decodeImage of the bytes of the file at `path`; std::runtime_error naming `path` when it
+// cannot be read.
+Image readImage(const std::string& path);
 
 // Draws `text` (ASCII, '\n' for new lines) with stb_easy_font: top-left corner at (x, y),
 // `scale` pixels per font unit (a capital is 7 units tall). Clipped to the image.

@@ -66,6 +66,23 @@ inline Polygons polygonsOf(const SurfaceTable& surface) {
     return {surface.vertexCount, surface.faceOffsets, surface.faceVerts};
 }
 
+// A base-colour texture on the surface. The faces here are the ones drawn (instead of the
+// Renderer's surface faces, which still give the vertex count and the refined wireframe):
+// CSR polygons over the surface vertices with a UV per corner, as a face-varying table's
+// finest faces (psub/tables.h FaceVaryingTable: faceOffsets, faceVerts, faceValues), so a
+// face at a seam has the UVs of its own island. uv: 2 floats per value, glTF's convention
+// (u right, v down: v = 0 is the image's top row; an OBJ `vt` v is 1 - this), repeating
+// outside [0, 1]. Colour = image (mip-mapped, filtered linearly) * factor, then lit as the
+// untextured surface is. The spans and the image need only live through the constructor.
+struct SurfaceTexture {
+    std::span<const std::uint32_t> faceOffsets, faceVerts, faceValues;
+    std::span<const float> uv;
+    const Image* image = nullptr;                   // RGBA, values meant as sRGB (as PNG/JPEG hold them)
+    std::array<float, 4> factor{1.0f, 1.0f, 1.0f, 1.0f};  // glTF's baseColorFactor
+
+    bool empty() const { return image == nullptr; }
+};
+
 enum class Wireframe {
     None,
     Refined,  // the refined faces' edges over the surface
@@ -90,7 +107,9 @@ struct DrawTimes {
 };
 
 // Draws one surface again and again. Everything is created here: graphics pipelines (shaded
-// surface: headlight + key light, Lambert on per-vertex normals, two-sided; lines drawn over
+// surface: headlight + key light, Lambert on per-vertex normals, two-sided, of a flat colour or
+// a texture; the textured faces pull positions and normals by index from storage buffers, so
+// their corners' UVs stay on the device and a frame uploads only positions and normals; lines drawn over
 // it pulled slightly towards the eye), colour and depth images, vertex, index and readback
 // buffers, two pre-recorded command buffers and a fence. A draw allocates nothing and
 // creates nothing. Needs a context whose queue can do graphics (lavapipe's can; on devices
@@ -99,13 +118,16 @@ struct DrawTimes {
 class Renderer {
 public:
     // surface: the faces drawn (triangulated as fans). control: the control faces, used only
-    // for Wireframe::Control (required then). Throws std::invalid_argument for inconsistent
-    // polygons or options, VulkanError on device failure or limits.
-    Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control = {});
+    // for Wireframe::Control (required then). texture: when not empty, its faces are drawn
+    // textured (the image is uploaded once, with its full mip chain). Throws
+    // std::invalid_argument for inconsistent polygons, UVs or options, VulkanError on device
+    // failure or limits (an image larger than the device's maxImageDimension2D).
+    Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control = {},
+             const SurfaceTexture& texture = {});
     // Draws straight from `source`'s device buffers (keptPositions, keptNormals, after
     // source.evaluateKept(control, true)) with drawKept(): no upload, no read-back of vertices.
     // `source` must be on `context`, have normals, and outlive the renderer; its surface() is
-    // the face list drawn.
+    // the face list drawn. Untextured.
     Renderer(VulkanContext& context, const VulkanEvaluator& source, const RenderOptions& options,
              Polygons control = {});
     ~Renderer();

@@ -1,0 +1,451 @@
+// Textured rendering: PNG and JPEG decoding (stb_image) and its errors; the CPU mip levels;
+// the renderer's texture path on hand-made per-corner UVs (a 2x2 checker seen head-on, two UV
+// islands meeting at a seam, minification through the mip chain, the factor against the flat
+// colour, bad UVs refused); `psub render --texture` errors. Every renderer test runs with the
+// validation layer on and fails on any message, and without a device unless
+// PSUB_ALLOW_NO_VULKAN=1.
+#include "psub/image.h"
+#include "psub/render.h"
+#include "psub/vulkan_evaluator.h"
+#include "test_support.h"
+#include "texture.h"
+
+#include <gtest/gtest.h>
+
+#define STB_IMAGE_WRITE_STATIC
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb_image_write.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace psub {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool noVulkanAllowed() {
+    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
+    return allow && std::string(allow) == "1";
+}
+
+std::vector<std::uint8_t> bytesOf(const std::string& s) { return {s.begin(), s.end()}; }
+
+std::string errorOf(const std::vector<std::uint8_t>& bytes, const std::string& name) {
+    try {
+        decodeImage(bytes, name);
+    } catch (const std::runtime_error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// A `width` x `height` image whose pixel (x, y) is colour(x, y).
+template <class Colour>
+Image makeImage(std::uint32_t width, std::uint32_t height, Colour colour) {
+    Image image = filledImage(width, height, {});
+    for (std::uint32_t y = 0; y < height; ++y)
+        for (std::uint32_t x = 0; x < width; ++x) image.setPixel(x, y, colour(x, y));
+    return image;
+}
+
+// ---------------------------------------------------------------------------------------
+// Decoding
+
+TEST(ImageDecode, PngRoundTripsExactly) {
+    const Image image = makeImage(5, 3, [](std::uint32_t x, std::uint32_t y) {
+        return Rgba{std::uint8_t(40 * x), std::uint8_t(70 * y), 200, std::uint8_t(255 - 10 * x)};
+    });
+    const Image decoded = decodeImage(bytesOf(encodePng("t.png", image)), "t.png");
+    EXPECT_EQ(decoded.width, 5u);
+    EXPECT_EQ(decoded.height, 3u);
+    EXPECT_EQ(decoded.rgba, image.rgba);
+}
+
+TEST(ImageDecode, JpegDecodesToOpaqueRgba) {
+    // Left half red, right half blue, 32x16 at quality 100 (stb_image_write, baseline JPEG).
+    const Image image = makeImage(32, 16, [](std::uint32_t x, std::uint32_t) {
+        return x < 16 ? Rgba{220, 20, 20, 255} : Rgba{20, 20, 220, 255};
+    });
+    std::vector<std::uint8_t> jpeg;
+    const auto append = [](void* context, void* data, int size) {
+        auto* out = static_cast<std::vector<std::uint8_t>*>(context);
+        out->insert(out->end(), static_cast<std::uint8_t*>(data), static_cast<std::uint8_t*>(data) + size);
+    };
+    ASSERT_TRUE(stbi_write_jpg_to_func(append, &jpeg, 32, 16, 4, image.rgba.data(), 100));
+    const Image decoded = decodeImage(jpeg, "t.jpg");
+    ASSERT_EQ(decoded.width, 32u);
+    ASSERT_EQ(decoded.height, 16u);
+    for (std::uint32_t y = 0; y < 16; ++y)
+        for (std::uint32_t x : {2u, 5u, 26u, 29u}) {
+            const Rgba want = image.pixel(x, y), got = decoded.pixel(x, y);
+            EXPECT_NEAR(got.r, want.r, 12) << x << "," << y;
+            EXPECT_NEAR(got.g, want.g, 12) << x << "," << y;
+            EXPECT_NEAR(got.b, want.b, 12) << x << "," << y;
+            EXPECT_EQ(got.a, 255);
+        }
+}
+
+TEST(ImageDecode, BrokenImagesNameTheFile) {
+    const std::string png = encodePng("t.png", filledImage(8, 8, {1, 2, 3, 255}));
+    EXPECT_NE(errorOf({}, "empty.png").find("empty.png: cannot decode the image: the file is empty"), std::string::npos);
+    EXPECT_NE(errorOf(bytesOf("not an image at all"), "text.png").find("text.png: cannot decode"), std::string::npos);
+    EXPECT_NE(errorOf(bytesOf(png.substr(0, png.size() / 2)), "cut.png").find("cut.png: cannot decode"),
+              std::string::npos);
+    EXPECT_NE(errorOf(bytesOf("GIF89a\x01\x00\x01\x00\x00\x00\x00"), "a.gif").find("a.gif: cannot decode"),
+              std::string::npos);
+    // The header claims 20000 pixels across: refused before any pixel is decoded.
+    std::string wide = png;
+    wide[16] = 0, wide[17] = 0, wide[18] = char(0x4e), wide[19] = char(0x20);
+    EXPECT_NE(errorOf(bytesOf(wide), "wide.png").find("wide.png: cannot decode"), std::string::npos);
+}
+
+TEST(ImageDecode, ReadImageNamesAMissingFile) {
+    const std::string path = (fs::temp_directory_path() / "psub_no_such_texture.png").string();
+    try {
+        readImage(path);
+        FAIL() << "no error";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(path + ": cannot open the image"), std::string::npos) << e.what();
+    }
+}
+
+TEST(ImageDecode, ReadImageReadsAFile) {
+    const fs::path path = fs::temp_directory_path() / ("psub_texture_" + std::to_string(::getpid()) + ".png");
+    const Image image = filledImage(3, 4, {9, 8, 7, 255});
+    writePng(path.string(), image);
+    EXPECT_EQ(readImage(path.string()).rgba, image.rgba);
+    fs::remove(path);
+}
+
+// The CPU's mip levels (used where the device cannot blit the texture's format).
+TEST(TextureMips, LevelCountAndBoxFilter) {
+    EXPECT_EQ(render_detail::mipLevelCount(1, 1), 1u);
+    EXPECT_EQ(render_detail::mipLevelCount(2, 1), 2u);
+    EXPECT_EQ(render_detail::mipLevelCount(256, 3), 9u);
+    EXPECT_EQ(render_detail::mipLevelCount(5, 300), 9u);
+    const Image checker = makeImage(4, 2, [](std::uint32_t x, std::uint32_t y) {
+        return (x + y) % 2 ? Rgba{255, 255, 255, 255} : Rgba{0, 0, 0, 255};
+    });
+    const Image half = render_detail::halveImage(checker);
+    ASSERT_EQ(half.width, 2u);
+    ASSERT_EQ(half.height, 1u);
+    EXPECT_EQ(half.pixel(0, 0), (Rgba{128, 128, 128, 255}));
+    EXPECT_EQ(half.pixel(1, 0), (Rgba{128, 128, 128, 255}));
+    const Image column = render_detail::halveImage(makeImage(1, 2, [](std::uint32_t, std::uint32_t y) {
+        return Rgba{std::uint8_t(100 * y), 0, 0, 255};
+    }));
+    EXPECT_EQ(column.width, 1u);
+    EXPECT_EQ(column.height, 1u);
+    EXPECT_EQ(column.pixel(0, 0), (Rgba{50, 0, 0, 255}));
+}
+
+// ---------------------------------------------------------------------------------------
+// The renderer's texture path
+
+using test::kSanitized;
+
+VulkanOptions validated() {
+    VulkanOptions options;
+    options.validation = Validation::On;
+    options.synchronizationValidation = !kSanitized;
+    return options;
+}
+
+class Textured : public ::testing::Test {
+protected:
+    void SetUp() override {
+        try {
+            context_ = std::make_unique<VulkanContext>(validated());
+        } catch (const VulkanError& e) {
+            if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
+            FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
+        }
+        ASSERT_TRUE(context_->validationEnabled());
+        totalBefore_ = vulkanValidationMessageTotal();
+    }
+    void TearDown() override {
+        if (!context_) return;
+        EXPECT_EQ(context_->validationMessageCount(), 0u)
+            << "validation messages; the last: " << context_->lastValidationMessage();
+        context_.reset();
+        EXPECT_EQ(vulkanValidationMessageTotal(), totalBefore_) << "validation messages on destruction (leaks?)";
+    }
+    VulkanContext& context() { return *context_; }
+
+private:
+    std::unique_ptr<VulkanContext> context_;
+    std::uint64_t totalBefore_ = 0;
+};
+
+// A flat surface in the plane z = 0 facing +z: vertices, faces, normals.
+struct Flat {
+    std::vector<float> positions, normals;
+    std::vector<std::uint32_t> offsets, verts;
+    Polygons polygons() const { return {std::uint32_t(positions.size() / 3), offsets, verts}; }
+};
+
+// The square [-1, 1]^2 as one quad.
+Flat square() {
+    Flat f;
+    f.positions = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+    f.normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+    f.offsets = {0, 4};
+    f.verts = {0, 1, 2, 3};
+    return f;
+}
+
+// The pixel (x, y) where the world point `p` lands (psub/render.h's convention).
+std::array<std::uint32_t, 2> pixelOf(const Camera& camera, std::array<float, 3> p, std::uint32_t width,
+                                     std::uint32_t height) {
+    const auto& m = camera.viewProjection;
+    float clip[4];
+    for (int r = 0; r < 4; ++r) clip[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+    const float x = (clip[0] / clip[3] + 1) / 2 * float(width), y = (clip[1] / clip[3] + 1) / 2 * float(height);
+    return {std::uint32_t(x), std::uint32_t(y)};
+}
+
+// Head-on: the camera on +z looking at the square [-1, 1]^2 (framed with a margin).
+Camera headOn(float aspect = 1) { return frameBox({-1, -1, 0}, {1, 1, 0}, aspect, {0, 0, 1}); }
+
+Rgba at(const Image& image, const Camera& camera, float x, float y) {
+    const auto p = pixelOf(camera, {x, y, 0}, image.width, image.height);
+    return image.pixel(p[0], p[1]);
+}
+
+RenderOptions small(std::uint32_t side = 128) {
+    RenderOptions o;
+    o.width = o.height = side;
+    o.samples = 1;
+    return o;
+}
+
+const Rgba kRed{255, 0, 0, 255}, kGreen{0, 255, 0, 255}, kBlue{0, 0, 255, 255}, kWhite{255, 255, 255, 255};
+
+// Lit colours keep the texture's hue: each channel that is 0 in the texel stays near 0, each
+// that is 255 stays bright.
+void expectHue(Rgba got, Rgba texel, const std::string& where) {
+    for (auto [g, t] : {std::pair{got.r, texel.r}, std::pair{got.g, texel.g}, std::pair{got.b, texel.b}}) {
+        if (t == 0) {
+            EXPECT_LT(g, 8) << where;
+        }
+        if (t == 255) {
+            EXPECT_GT(g, 200) << where;
+        }
+    }
+}
+
+TEST_F(Textured, CheckerQuadrantsHeadOn) {
+    // 2x2 texels: top row red, green; bottom row blue, white. glTF UVs: v = 0 at the top, so
+    // the square's top-left corner (-1, 1) takes uv (0, 0).
+    const Image checker = makeImage(2, 2, [](std::uint32_t x, std::uint32_t y) {
+        return y == 0 ? (x == 0 ? kRed : kGreen) : (x == 0 ? kBlue : kWhite);
+    });
+    const Flat s = square();
+    const std::vector<std::uint32_t> values = {0, 1, 2, 3};
+    const std::vector<float> uv = {0, 1, 1, 1, 1, 0, 0, 0};
+    SurfaceTexture texture{s.offsets, s.verts, values, uv, &checker};
+    Renderer renderer(context(), s.polygons(), small(), {}, texture);
+    const Camera camera = headOn();
+    Image out;
+    renderer.draw(s.positions, s.normals, camera, out);
+    EXPECT_EQ(renderer.triangleCount(), 2u);
+    // Quadrant centres sample texel centres exactly.
+    expectHue(at(out, camera, -0.5f, 0.5f), kRed, "top left");
+    expectHue(at(out, camera, 0.5f, 0.5f), kGreen, "top right");
+    expectHue(at(out, camera, -0.5f, -0.5f), kBlue, "bottom left");
+    expectHue(at(out, camera, 0.5f, -0.5f), kWhite, "bottom right");
+    // Outside the square: the background.
+    EXPECT_EQ(out.pixel(1, 1), (Rgba{255, 255, 255, 255}));
+}
+
+// Two quads share the edge x = 0 (vertices 1 and 4) but not its UVs: the left quad maps to
+// the texture's right (green) half, the right quad to its left (red) half. Per-vertex UVs
+// could not do this; per corner, each side samples its own island up to the seam.
+TEST_F(Textured, EachSideOfASeamSamplesItsOwnIsland) {
+    Flat f;
+    f.positions = {-1, -1, 0, 0, -1, 0, 1, -1, 0, -1, 1, 0, 0, 1, 0, 1, 1, 0};
+    f.normals.assign(18, 0);
+    for (std::size_t v = 0; v < 6; ++v) f.normals[3 * v + 2] = 1;
+    f.offsets = {0, 4, 8};
+    f.verts = {0, 1, 4, 3, 1, 2, 5, 4};
+    const std::vector<std::uint32_t> values = {0, 1, 2, 3, 4, 5, 6, 7};
+    const std::vector<float> uv = {0.6f, 0.9f, 0.9f, 0.9f, 0.9f, 0.1f, 0.6f, 0.1f,   // left quad: green island
+                                   0.1f, 0.9f, 0.4f, 0.9f, 0.4f, 0.1f, 0.1f, 0.1f};  // right quad: red island
+    const Image halves = makeImage(64, 64, [](std::uint32_t x, std::uint32_t) { return x < 32 ? kRed : kGreen; });
+    SurfaceTexture texture{f.offsets, f.verts, values, uv, &halves};
+    const RenderOptions o = small(160);
+    Renderer renderer(context(), f.polygons(), o, {}, texture);
+    const Camera camera = headOn();
+    Image out;
+    renderer.draw(f.positions, f.normals, camera, out);
+    for (float y : {-0.8f, -0.3f, 0.2f, 0.7f}) {
+        for (float x : {-0.9f, -0.5f, -0.1f}) expectHue(at(out, camera, x, y), kGreen, "left of the seam");
+        for (float x : {0.1f, 0.5f, 0.9f}) expectHue(at(out, camera, x, y), kRed, "right of the seam");
+        // The change is at the seam itself: the pixels next to it on either side.
+        const auto seam = pixelOf(camera, {0, y, 0}, o.width, o.height);
+        expectHue(out.pixel(seam[0] - 2, seam[1]), kGreen, "two pixels left of the seam");
+        expectHue(out.pixel(seam[0] + 2, seam[1]), kRed, "two pixels right of the seam");
+    }
+}
+
+// A one-pixel checker of 256x256 texels drawn across about 40 pixels: through the mip chain
+// every pixel is the checker's mean (half the lit white), not black or white texels.
+TEST_F(Textured, MinifiedCheckerAveragesToGrey) {
+    const Image fine = makeImage(256, 256, [](std::uint32_t x, std::uint32_t y) { return (x + y) % 2 ? kWhite : Rgba{0, 0, 0, 255}; });
+    const Image white = filledImage(1, 1, kWhite);
+    const Flat s = square();
+    const std::vector<std::uint32_t> values = {0, 1, 2, 3};
+    const std::vector<float> uv = {0, 1, 1, 1, 1, 0, 0, 0};
+    const Camera camera = headOn();
+    Image grey, lit;
+    Renderer(context(), s.polygons(), small(64), {}, SurfaceTexture{s.offsets, s.verts, values, uv, &fine})
+        .draw(s.positions, s.normals, camera, grey);
+    Renderer(context(), s.polygons(), small(64), {}, SurfaceTexture{s.offsets, s.verts, values, uv, &white})
+        .draw(s.positions, s.normals, camera, lit);
+    int checked = 0;
+    for (float y = -0.8f; y <= 0.8f; y += 0.1f)
+        for (float x = -0.8f; x <= 0.8f; x += 0.1f) {
+            const Rgba g = at(grey, camera, x, y), w = at(lit, camera, x, y);
+            EXPECT_NEAR(double(g.r) / double(w.r), 0.5, 0.06) << x << "," << y;
+            EXPECT_EQ(g.r, g.g);
+            ++checked;
+        }
+    EXPECT_GT(checked, 200);
+}
+
+// A white texture times a factor is lit exactly like the flat colour of that factor; the
+// untextured renderer draws what it drew before.
+TEST_F(Textured, FactorMatchesTheFlatColour) {
+    const Image white = filledImage(4, 4, kWhite);
+    const Flat s = square();
+    const std::vector<std::uint32_t> values = {0, 1, 2, 3};
+    const std::vector<float> uv = {0, 1, 1, 1, 1, 0, 0, 0};
+    RenderOptions o = small(96);
+    o.surface = {170, 190, 215, 255};
+    SurfaceTexture texture{s.offsets, s.verts, values, uv, &white};
+    texture.factor = {170 / 255.0f, 190 / 255.0f, 215 / 255.0f, 1};
+    const Camera camera = frameBox({-1, -1, 0}, {1, 1, 0}, 1);  // from the side: varied lighting
+    Image flat, textured;
+    Renderer(context(), s.polygons(), o).draw(s.positions, s.normals, camera, flat);
+    Renderer(context(), s.polygons(), o, {}, texture).draw(s.positions, s.normals, camera, textured);
+    int differing = 0, surface = 0;
+    for (std::size_t i = 0; i < flat.rgba.size(); ++i) {
+        differing += std::abs(int(flat.rgba[i]) - int(textured.rgba[i])) > 1;
+        surface += flat.rgba[i] != 255;
+    }
+    EXPECT_EQ(differing, 0);
+    EXPECT_GT(surface, 1000);
+}
+
+TEST_F(Textured, BadUvsAreRefused) {
+    const Image white = filledImage(1, 1, kWhite);
+    const Flat s = square();
+    const std::vector<std::uint32_t> values = {0, 1, 2, 3}, shortValues = {0, 1, 2};
+    const std::vector<float> uv = {0, 1, 1, 1, 1, 0, 0, 0}, fewUv = {0, 1, 1, 1}, nanUv = {0, 1, 1, NAN, 1, 0, 0, 0};
+    const std::vector<std::uint32_t> beyond = {0, 1, 2, 7};
+    EXPECT_THROW(Renderer(context(), s.polygons(), small(), {}, SurfaceTexture{s.offsets, s.verts, shortValues, uv, &white}),
+                 std::invalid_argument);
+    EXPECT_THROW(Renderer(context(), s.polygons(), small(), {}, SurfaceTexture{s.offsets, s.verts, values, fewUv, &white}),
+                 std::invalid_argument);
+    EXPECT_THROW(Renderer(context(), s.polygons(), small(), {}, SurfaceTexture{s.offsets, s.verts, values, nanUv, &white}),
+                 std::invalid_argument);
+    EXPECT_THROW(Renderer(context(), s.polygons(), small(), {}, SurfaceTexture{s.offsets, beyond, values, uv, &white}),
+                 std::invalid_argument);
+    Image broken = white;
+    broken.rgba.pop_back();
+    EXPECT_THROW(Renderer(context(), s.polygons(), small(), {}, SurfaceTexture{s.offsets, s.verts, values, uv, &broken}),
+                 std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------
+// psub render --texture
+
+struct PsubRun {
+    int status = -1;
+    std::string output;  // stdout and stderr
+};
+
+PsubRun runPsub(const std::string& arguments) {
+    const fs::path log = fs::temp_directory_path() / ("psub_texture_log_" + std::to_string(::getpid()));
+    const std::string sanitizer = kSanitized ? "ASAN_OPTIONS=detect_leaks=0 " : "";
+    const std::string command = sanitizer + PSUB_EXE + std::string(" ") + arguments + " >" + log.string() + " 2>&1";
+    const int status = std::system(command.c_str());
+    PsubRun run;
+    run.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream in(log);
+    std::stringstream text;
+    text << in.rdbuf();
+    run.output = text.str();
+    fs::remove(log);
+    return run;
+}
+
+class TextureCommand : public ::testing::Test {
+protected:
+    void SetUp() override {
+        try {
+            VulkanContext probe;
+        } catch (const VulkanError& e) {
+            if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
+            FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
+        }
+        dir_ = fs::temp_directory_path() / ("psub_texture_cli_" + std::to_string(::getpid()));
+        fs::create_directories(dir_);
+    }
+    void TearDown() override {
+        if (!dir_.empty()) fs::remove_all(dir_);
+    }
+    fs::path dir_;
+};
+
+TEST_F(TextureCommand, UnreadableImagesAreNamedAndWriteNothing) {
+    const std::string cube = test::dataPath("cube.obj"), out = (dir_ / "out.png").string();
+    const std::string missing = (dir_ / "missing.png").string(), broken = (dir_ / "broken.png").string();
+    std::ofstream(broken) << "not a png";
+    for (const std::string& image : {missing, broken}) {
+        const PsubRun run = runPsub("render " + cube + " -o " + out + " --levels 1 --texture " + image);
+        EXPECT_EQ(run.status, 1) << run.output;
+        EXPECT_NE(run.output.find(image + ": cannot"), std::string::npos) << run.output;
+        EXPECT_FALSE(fs::exists(out));
+    }
+}
+
+TEST_F(TextureCommand, AMeshWithoutUvsIsRefused) {
+    const std::string cube = test::dataPath("cube.obj"), out = (dir_ / "out.png").string();
+    const std::string image = (dir_ / "t.png").string();
+    writePng(image, filledImage(2, 2, kRed));
+    const PsubRun run = runPsub("render " + cube + " -o " + out + " --levels 1 --texture " + image);
+    EXPECT_EQ(run.status, 1) << run.output;
+    EXPECT_NE(run.output.find(cube + ": --texture needs texture coordinates"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(out));
+    const PsubRun cc = runPsub("render " + cube + " -o " + out + " --scheme cc --texture " + image);
+    EXPECT_EQ(cc.status, 2) << cc.output;
+    EXPECT_FALSE(fs::exists(out));
+    // Untextured, the same command draws.
+    EXPECT_EQ(runPsub("render " + cube + " -o " + out + " --levels 1 --size 64x64").status, 0);
+    EXPECT_TRUE(fs::exists(out));
+}
+
+TEST_F(TextureCommand, PlayRenderChecksTheTextureFirst) {
+    const std::string cube = test::dataPath("cube.obj"), dir = (dir_ / "frames").string();
+    const std::string missing = (dir_ / "missing.png").string();
+    const PsubRun run = runPsub("play " + cube + " --levels 1 --frames 2 --render " + dir + " --texture " + missing);
+    EXPECT_EQ(run.status, 1) << run.output;
+    EXPECT_NE(run.output.find(missing + ": cannot open the image"), std::string::npos) << run.output;
+    EXPECT_FALSE(fs::exists(fs::path(dir) / "frame_0000.png"));
+}
+
+}  // namespace
+}  // namespace psub
