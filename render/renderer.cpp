@@ -682,8 +682,8 @@ Renderer::Renderer(VulkanContext& context, const VulkanEvaluator& source, const 
     r.vertexStride = 4 * source.deviceStride();
     r.drawnPositions = source.keptPositions().buffer;
     r.drawnNormals = source.keptNormals().buffer;
-    r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, true);
-    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, false);
+    r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, PipelineKind::Mesh);
+    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, PipelineKind::Lines);
     r.recordCommands();
 }
 

@@ -1,7 +1,7 @@
 // glTF texture coordinates, materials and touching shells in (readGltf), glTF out
 // (formatGltf, checked by the Khronos validator), and psub subdivide's glTF path (--at).
 #include "gltf_models.h"
-#include "output_test_support.h"
+#include "test_support.h"
 #include "test_support.h"
 
 #include "psub/animation.h"
