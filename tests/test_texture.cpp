@@ -447,5 +447,14 @@ TEST_F(TextureCommand, PlayRenderChecksTheTextureFirst) {
     EXPECT_FALSE(fs::exists(fs::path(dir) / "frame_0000.png"));
 }
 
+TEST(TextureCommandHelp, TeachesTheTexture) {
+    const PsubRun render = runPsub("render --help"), play = runPsub("play --help");
+    EXPECT_EQ(render.status, 0);
+    EXPECT_NE(render.output.find("--texture TEXT"), std::string::npos) << render.output;
+    EXPECT_NE(render.output.find("--levels 6 --texture data/spot_texture.png"), std::string::npos) << render.output;
+    EXPECT_EQ(play.status, 0);
+    EXPECT_NE(play.output.find("--render frames/ --texture data/spot_texture.png"), std::string::npos) << play.output;
+}
+
 }  // namespace
 }  // namespace psub
