@@ -1,7 +1,7 @@
-// psub/evaluator.h: applies stencil tables (psub/tables.h) to vertex buffers on the CPU. One
-// contract for every backend: source buffer + layout, destination buffer + layout, table,
-// row range. Results are gathered per row, so they never depend on threading. Reads tables
-// only, never topology.
+// psub/evaluator.h: applies stencil tables (psub/tables.h) to vertex buffers on the CPU: the
+// CPU's own tools (any width, float or double, row ranges with a layout per buffer). The
+// contract every backend follows is psub/evaluate.h. Results are gathered per row, so they
+// never depend on threading. Reads tables only, never topology.
 #pragma once
 
 #include "psub/tables.h"
