@@ -447,6 +447,47 @@ TEST_F(TextureCommand, PlayRenderChecksTheTextureFirst) {
     EXPECT_FALSE(fs::exists(fs::path(dir) / "frame_0000.png"));
 }
 
+// End to end: OBJ `vt` read, refined through the face-varying tables and drawn. A planar 4 x 4
+// grid whose UVs are u = x / 4, v = y / 4 (an affine map: the P-S rules reproduce it, so the
+// refined u is x / 4 everywhere) under a texture whose left half (u < 1/2) is red and right half
+// blue: in every image row the red pixels lie left of the blue ones (the plane's line x = 2 is a
+// straight line in the image, crossed once per row), and both colours are drawn.
+TEST_F(TextureCommand, ObjUvsAreRefinedAndDrawnEndToEnd) {
+    std::ostringstream obj;
+    for (int j = 0; j <= 4; ++j)
+        for (int i = 0; i <= 4; ++i) obj << "v " << i << ' ' << j << " 0\n";
+    for (int j = 0; j <= 4; ++j)
+        for (int i = 0; i <= 4; ++i) obj << "vt " << i / 4.0 << ' ' << j / 4.0 << "\n";
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            const int a = 1 + j * 5 + i, b = a + 1, c = a + 6, d = a + 5;
+            obj << "f " << a << '/' << a << ' ' << b << '/' << b << ' ' << c << '/' << c << ' ' << d << '/' << d << "\n";
+        }
+    const std::string mesh = (dir_ / "grid_uv.obj").string(), image = (dir_ / "halves.png").string();
+    const std::string out = (dir_ / "out.png").string();
+    std::ofstream(mesh) << obj.str();
+    Image halves = filledImage(64, 4, kRed);
+    for (std::uint32_t y = 0; y < 4; ++y)
+        for (std::uint32_t x = 32; x < 64; ++x) halves.setPixel(x, y, Rgba{0, 0, 255, 255});
+    writePng(image, halves);
+    const PsubRun run = runPsub("render " + mesh + " -o " + out + " --levels 3 --size 160x120 --texture " + image);
+    ASSERT_EQ(run.status, 0) << run.output;
+    const Image drawn = readPng(out);
+    int redPixels = 0, bluePixels = 0;
+    for (std::uint32_t y = 0; y < drawn.height; ++y) {
+        int lastRed = -1, firstBlue = int(drawn.width);
+        for (std::uint32_t x = 0; x < drawn.width; ++x) {
+            const Rgba p = drawn.pixel(x, y);
+            if (p.r > p.b + 80 && p.r > p.g + 80) lastRed = int(x), ++redPixels;
+            if (p.b > p.r + 80 && p.b > p.g + 80 && firstBlue == int(drawn.width)) firstBlue = int(x);
+            if (p.b > p.r + 80 && p.b > p.g + 80) ++bluePixels;
+        }
+        EXPECT_LT(lastRed, firstBlue) << "row " << y;
+    }
+    EXPECT_GT(redPixels, 500);
+    EXPECT_GT(bluePixels, 500);
+}
+
 TEST(TextureCommandHelp, TeachesTheTexture) {
     const PsubRun render = runPsub("render --help"), play = runPsub("play --help");
     EXPECT_EQ(render.status, 0);
