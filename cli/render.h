@@ -20,6 +20,7 @@ struct RenderCommandOptions {
     std::string input, output;
     int levels = 4;
     Scheme scheme = Scheme::PS;
+    Rules rules = Rules::Paper;  // --scheme ps only
     Wireframe wireframe = Wireframe::None;
     std::uint32_t width = 1280, height = 720;
     Backend backend = Backend::Cpu;  // where the surface is evaluated: Cpu or Vulkan
@@ -34,9 +35,10 @@ struct Drawable {
     std::string what;  // "P-S, 4 steps" and where it was evaluated
 };
 
-// P-S after `levels` steps (after the paired method when needed) of a checked mesh, evaluated
-// on `backend` (Cpu or Vulkan on `context`).
-Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels);
+// P-S after `levels` steps (after the paired method when needed) of a checked mesh with
+// `rules`, evaluated on `backend` (Cpu or Vulkan on `context`).
+Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels,
+                    Rules rules = Rules::Paper);
 
 // OpenSubdiv's Catmull-Clark after `levels` levels (0: the mesh itself), normals on `backend`.
 Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, int levels);
