@@ -939,14 +939,9 @@ GltfClip readClip(const Context& cx, const GltfAsset& asset, std::size_t a, std:
 // The file
 
 std::vector<unsigned char> readBytes(const std::string& path) {
-    std::error_code error;
-    if (std::filesystem::is_directory(path, error)) throw InputError(path + ": is a directory, not a glTF file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw InputError(path + ": cannot open the file");
+    const std::string text = readInputFile(path);
     try {
-        std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-        if (in.bad()) throw InputError(path + ": cannot read the file");
-        return bytes;
+        return std::vector<unsigned char>(text.begin(), text.end());
     } catch (const std::bad_alloc&) {
         throw InputError(path + ": the file does not fit in memory");
     }

@@ -1,6 +1,7 @@
 // psub figure5: the paper's Figure 5 rebuilt (its picture was lost from our copy): per model,
 // one PNG row of the input, P-S and Catmull-Clark at equal face counts, one camera per row;
 // and the paper's Table I (faces per step of both schemes) as a table and a log-scale plot.
+// psub figure-shape: one such row of the cube for the rules, paper beside shape.
 #include "figure5.h"
 
 #include "options.h"
@@ -184,6 +185,55 @@ CLI::App* addFigure5Command(CLI::App& app, Figure5Options& o) {
                "the input, so the shrinking of P-S shows. Drawn offscreen with Vulkan (lavapipe will do).\n"
                "Example:\n  psub figure5 -o docs/");
     return fi;
+}
+
+CLI::App* addFigureShapeCommand(CLI::App& app, Figure5Options& o) {
+    CLI::App* fs = app.add_subcommand(
+        "figure-shape", "The cube after 4 P-S steps with the paper's and the shape rules beside Catmull-Clark's 2 levels");
+    fs->add_option("-o,--output-dir", o.outputDir, "directory for figure_shape_cube.png")->default_val(".");
+    addSize(fs, "--panel-size", o.panelWidth, o.panelHeight, "size of each picture in the row", 64, "480x360");
+    fs->footer("One row, one camera framing the input cube, all three at 96 faces: P-S 4 steps with --rules\n"
+               "paper, P-S 4 steps with --rules shape, Catmull-Clark (OpenSubdiv) 2 levels. Drawn offscreen\n"
+               "with Vulkan (lavapipe will do).\n"
+               "Example:\n  psub figure-shape -o docs/ --panel-size 400x300");
+    return fs;
+}
+
+int runFigureShape(const Figure5Options& o) {
+    makeOutputDirectory(o.outputDir);
+    Model model{{"cube", 4, 2, Wireframe::Refined}, {}, {}};
+    model.mesh = loadChecked(dataDir() + "/cube.obj", model.checked);
+    const std::string out = (std::filesystem::path(o.outputDir) / "figure_shape_cube.png").string();
+    try {
+        VulkanContext context;
+        const Mesh& mesh = model.mesh;
+        const Drawable panels[3] = {drawablePS(context, Backend::Cpu, mesh, model.checked, 4, Rules::Paper),
+                                    drawablePS(context, Backend::Cpu, mesh, model.checked, 4, Rules::Shape),
+                                    drawableCC(context, Backend::Cpu, mesh, 2)};
+        const std::string captions[3] = {"P-S 4 steps, --rules paper\n" + faces(panels[0]),
+                                         "P-S 4 steps, --rules shape\n" + faces(panels[1]),
+                                         "Catmull-Clark 2 levels\n" + faces(panels[2])};
+        Box box;
+        box.extend(std::vector<float>(mesh.positions.begin(), mesh.positions.end()));
+        const Camera camera = frameBox(box, float(o.panelWidth) / float(o.panelHeight));
+        RenderOptions ro;
+        ro.width = o.panelWidth, ro.height = o.panelHeight, ro.wireframe = Wireframe::Refined;
+        Image images[3];
+        for (int k = 0; k < 3; ++k) {
+            Renderer renderer(context, polygonsOf(panels[k].surface), ro);
+            renderer.draw(panels[k].positions, panels[k].normals, camera, images[k]);
+        }
+        writeOutput(out, encodePng(out, panelsWithCaptions(images, captions)));
+    } catch (const VulkanError& e) {
+        std::fprintf(stderr, "psub: error: figure-shape: %s\n", e.what());
+        return 1;
+    } catch (const std::runtime_error& e) {  // the PNG could not be written
+        if (dynamic_cast<const InputError*>(&e)) throw;
+        std::fprintf(stderr, "psub: error: figure-shape: %s\n", e.what());
+        return 1;
+    }
+    std::printf("%s\n", out.c_str());
+    return 0;
 }
 
 int runFigure5(const Figure5Options& o) {

@@ -25,4 +25,9 @@ CLI::App* addFigure5Command(CLI::App& app, Figure5Options& options);
 // with one line on stderr (no Vulkan device, a file that cannot be written).
 int runFigure5(const Figure5Options& options);
 
+// psub figure-shape: figure_shape_cube.png, the cube after 4 P-S steps with --rules paper and
+// --rules shape beside Catmull-Clark after 2 levels (96 faces each, one camera). Returns as runFigure5.
+CLI::App* addFigureShapeCommand(CLI::App& app, Figure5Options& options);
+int runFigureShape(const Figure5Options& options);
+
 }  // namespace psub::cli

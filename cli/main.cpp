@@ -293,6 +293,8 @@ int main(int argc, char** argv) {
     CLI::App* re = addRenderCommand(app, renderOptions);
     Figure5Options figure5Options;
     CLI::App* fi = addFigure5Command(app, figure5Options);
+    Figure5Options figureShapeOptions;
+    CLI::App* fs = addFigureShapeCommand(app, figureShapeOptions);
 #endif
 #if PSUB_HAVE_VIEW
     ViewOptions viewOptions;
@@ -354,8 +356,13 @@ int main(int argc, char** argv) {
         if (co->parsed()) return runCompare(compare);
         if (pl->parsed()) return runPlay(playOptions);
 #if PSUB_HAVE_RENDER
+        if (re->parsed() && renderOptions.scheme == Scheme::CatmullClark && re->count("--rules")) {
+            std::fprintf(stderr, "psub render: --rules applies to --scheme ps only\n");
+            return 2;
+        }
         if (re->parsed()) return runRender(renderOptions);
         if (fi->parsed()) return runFigure5(figure5Options);
+        if (fs->parsed()) return runFigureShape(figureShapeOptions);
 #endif
 #if PSUB_HAVE_VIEW
         if (vi->parsed()) return runView(viewOptions);

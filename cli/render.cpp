@@ -68,14 +68,17 @@ void evaluate(VulkanContext& context, Backend backend, const PerLevelTable& perL
 
 }  // namespace
 
-Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels) {
+Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels,
+                    Rules rules) {
     RefineOptions options;
     options.levels = levels;
+    options.rules = rules;
     Refinement r = refine(mesh, checked.connectivity, options);
     Drawable d;
     d.surface = std::move(r.surface);
     d.uv = std::move(r.uv);
     d.what = "P-S, " + std::to_string(levels) + (levels == 1 ? " step" : " steps");
+    if (rules != Rules::Paper) d.what += rules == Rules::Robust ? ", robust rules" : ", shape rules";
     const std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     evaluate(context, backend, r.perLevel, control, d);
     requireFinite(d.positions, mesh.source.path, "refined");
@@ -189,6 +192,8 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     re->add_option("-o,--output", o.output, "output image (.png), written atomically; - for standard output")->required();
     addInteger(re, "-l,--levels", o.levels, 0, 30, "refinement steps (P-S) or levels (--scheme cc)", 4);
     addChoice(re, "--scheme", o.scheme, kSchemeNames, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
+    addChoice(re, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper; --scheme ps only)",
+              "paper");
     addChoice(re, "--wireframe", o.wireframe, kWireframe,
               "none; refined: the refined faces' edges; control: the input faces' edges (the cage)", "none");
     addSize(re, "--size", o.width, o.height, "image size in pixels", 1, "1280x720");
@@ -228,7 +233,7 @@ int runRender(const RenderCommandOptions& o) {
     }
     try {
         VulkanContext context;
-        const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels)
+        const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels, o.rules)
                                                   : drawableCC(context, o.backend, mesh, o.levels);
         std::optional<TextureData> texture;
         if (!o.texture.empty()) texture = textureData(std::move(image), mesh, d.uv);

@@ -20,6 +20,7 @@ struct RenderCommandOptions {
     std::string input, output;
     int levels = 4;
     Scheme scheme = Scheme::PS;
+    Rules rules = Rules::Paper;  // --scheme ps only
     Wireframe wireframe = Wireframe::None;
     std::uint32_t width = 1280, height = 720;
     Backend backend = Backend::Cpu;  // where the surface is evaluated: Cpu or Vulkan
@@ -58,9 +59,10 @@ void requireUvs(const Mesh& mesh);
 // InputError naming the mesh's file when it has no UVs (or `table` is empty).
 TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table);
 
-// P-S after `levels` steps (after the paired method when needed) of a checked mesh, evaluated
-// on `backend` (Cpu or Vulkan on `context`).
-Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels);
+// P-S after `levels` steps (after the paired method when needed) of a checked mesh with
+// `rules`, evaluated on `backend` (Cpu or Vulkan on `context`).
+Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels,
+                    Rules rules = Rules::Paper);
 
 // OpenSubdiv's Catmull-Clark after `levels` levels (0: the mesh itself), normals on `backend`.
 Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, int levels);

@@ -157,6 +157,31 @@ void renameInto(const std::string& temp, const Target& target, const std::string
     }
 }
 
+// A second name (a hard link) beside `target` for its current contents, so that writeOutputs
+// can put them back; a copy where the file system has no hard links.
+std::string keepOldContents(const Target& target, const std::string& path) {
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        std::string keep = directoryOf(target.path) + ".psub-keep-XXXXXX";
+        const int fd = ::mkstemp(keep.data());  // a free name, replaced by the link below
+        if (fd < 0) fail(path, "keep the old contents", errno);
+        ::close(fd);
+        ::unlink(keep.c_str());
+        if (::link(target.path.c_str(), keep.c_str()) == 0) return keep;
+        if (errno == EEXIST) continue;
+        if (errno != EPERM && errno != EOPNOTSUPP && errno != EXDEV && errno != EMLINK) fail(path, "keep the old contents", errno);
+        std::FILE* in = std::fopen(target.path.c_str(), "rb");
+        if (!in) fail(path, "keep the old contents", errno);
+        std::string bytes;
+        char buffer[1 << 16];
+        for (std::size_t got; (got = std::fread(buffer, 1, sizeof buffer, in)) > 0;) bytes.append(buffer, got);
+        const bool failed = std::ferror(in);
+        std::fclose(in);
+        if (failed) fail(path, "keep the old contents", EIO);
+        return writeTemporary(target, path, bytes);
+    }
+    fail(path, "keep the old contents", EEXIST);
+}
+
 }  // namespace
 
 void writeOutput(const std::string& path, std::string_view bytes) {
@@ -168,14 +193,20 @@ void writeOutput(const std::string& path, std::string_view bytes) {
 void writeOutputs(const std::vector<OutputFile>& files) {
     std::vector<Target> targets;
     for (const OutputFile& file : files) targets.push_back(classify(file.first));
-    std::vector<std::string> temps;
+    std::vector<std::string> temps, keeps;  // keeps: a second link to each replaced file's old contents
+    const auto removeAll = [](const std::vector<std::string>& names) {
+        for (const std::string& name : names)
+            if (!name.empty()) ::unlink(name.c_str());
+    };
     try {
-        for (std::size_t i = 0; i < files.size(); ++i)
-            temps.push_back(targets[i].kind == Kind::Atomic ? writeTemporary(targets[i], files[i].first, files[i].second)
-                                                            : std::string());
+        for (std::size_t i = 0; i < files.size(); ++i) {
+            const bool atomic = targets[i].kind == Kind::Atomic;
+            temps.push_back(atomic ? writeTemporary(targets[i], files[i].first, files[i].second) : std::string());
+            keeps.push_back(atomic && targets[i].exists ? keepOldContents(targets[i], files[i].first) : std::string());
+        }
     } catch (...) {
-        for (const std::string& temp : temps)
-            if (!temp.empty()) ::unlink(temp.c_str());
+        removeAll(temps);
+        removeAll(keeps);
         throw;
     }
     for (std::size_t i = 0; i < files.size(); ++i) {
@@ -183,11 +214,23 @@ void writeOutputs(const std::vector<OutputFile>& files) {
         try {
             renameInto(temps[i], targets[i], files[i].first);
         } catch (...) {
+            // Put back what was already replaced: the old contents, or no file where there was none.
+            for (std::size_t j = 0; j < i; ++j) {
+                if (temps[j].empty()) continue;
+                if (!keeps[j].empty()) {
+                    std::rename(keeps[j].c_str(), targets[j].path.c_str());
+                    keeps[j].clear();
+                } else {
+                    ::unlink(targets[j].path.c_str());
+                }
+            }
             for (std::size_t j = i + 1; j < files.size(); ++j)
                 if (!temps[j].empty()) ::unlink(temps[j].c_str());
+            removeAll(keeps);
             throw;
         }
     }
+    removeAll(keeps);
     for (std::size_t i = 0; i < files.size(); ++i)
         if (temps[i].empty()) writeThrough(targets[i], files[i].first, files[i].second);
 }

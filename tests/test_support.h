@@ -213,6 +213,7 @@ inline constexpr const char* kNoLeakCheck = "ASAN_OPTIONS=detect_leaks=0";
 
 // How runPsub runs psub.
 struct PsubHow {
+    std::string shellFirst;   // shell commands run first, e.g. "ulimit -v 1048576"
     std::string environment;  // assignments before the program, e.g. "PSUB_VULKAN_VALIDATION=1"
     std::string prefix;       // a program in front of it, e.g. "xvfb-run -a"
     fs::path directory;       // run in this directory; empty: the test's own
@@ -228,6 +229,7 @@ inline PsubRun runPsub(const std::string& args, const PsubHow& how = {}) {
     const std::string out = how.stdoutTo.empty() ? base + ".out" : how.stdoutTo, err = base + ".err";
     std::string command;
     if (!how.directory.empty()) command += "cd " + test::quoted(how.directory) + " && ";
+    if (!how.shellFirst.empty()) command += how.shellFirst + " && ";
     command += how.environment + " ";
     if (how.timeoutSeconds > 0) command += "timeout -k 5 " + std::to_string(how.timeoutSeconds) + " ";
     command += how.prefix + " '" PSUB_EXE "' " + args + " >" + test::quoted(out) + " 2>" + test::quoted(err) + " </dev/null";

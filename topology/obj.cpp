@@ -283,24 +283,47 @@ Mesh parseObj(std::string_view text, const std::string& name, std::vector<std::s
     return parser.finish();
 }
 
-Mesh readObj(const std::string& path, std::vector<std::string>* warnings) {
-    std::FILE* file = std::fopen(path.c_str(), "rb");
-    if (!file) throw InputError(path + ": cannot open: " + std::strerror(errno));
+std::string readInputFile(const std::string& path) {
+    // Opened without blocking, so that a FIFO cannot hold the open; refused unless regular.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) throw InputError(path + ": cannot open: " + std::strerror(errno));
+    struct stat info {};
+    if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
+        const mode_t mode = info.st_mode;
+        ::close(fd);
+        const char* kind = S_ISDIR(mode)    ? "a directory"
+                           : S_ISFIFO(mode) ? "a named pipe (FIFO)"
+                           : S_ISCHR(mode)  ? "a character device"
+                           : S_ISBLK(mode)  ? "a block device"
+                           : S_ISSOCK(mode) ? "a socket"
+                                            : "not a regular file";
+        throw InputError(path + ": is " + kind + ", not a regular file (psub reads input only from files)");
+    }
     std::string text;
     char buffer[1 << 16];
-    std::size_t got = 0;
     try {
-        while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) text.append(buffer, got);
+        for (;;) {
+            const ssize_t got = ::read(fd, buffer, sizeof buffer);
+            if (got < 0 && errno == EINTR) continue;
+            if (got < 0) {
+                const int error = errno;
+                ::close(fd);
+                throw InputError(path + ": cannot read: " + std::strerror(error));
+            }
+            if (got == 0) break;
+            text.append(buffer, std::size_t(got));
+        }
     } catch (const std::bad_alloc&) {
-        std::fclose(file);
+        ::close(fd);
         throw InputError(path + ": the file does not fit in memory (" + std::to_string(text.size()) +
                          " bytes read)");
     }
-    const bool failed = std::ferror(file);
-    const int error = errno;
-    std::fclose(file);
-    if (failed) throw InputError(path + ": cannot read: " + std::strerror(error));
-    return parseObj(text, path, warnings);
+    ::close(fd);
+    return text;
+}
+
+Mesh readObj(const std::string& path, std::vector<std::string>* warnings) {
+    return parseObj(readInputFile(path), path, warnings);
 }
 
 namespace {

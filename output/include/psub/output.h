@@ -36,8 +36,13 @@ void writeOutput(const std::string& path, std::string_view bytes);
 using OutputFile = std::pair<std::string, std::string>;
 
 // Writes several files as one: every atomic target's temporary is written and flushed first,
-// and only when all are complete are they renamed into place (written-through targets last).
-// So a failure while writing leaves none of the files changed.
+// and a second link (or a copy) keeps each replaced file's old contents; only when all are
+// complete are the temporaries renamed into place (written-through targets last). A failure
+// while writing leaves none of the files changed; a failure renaming one puts back the files
+// already replaced (their old contents, or no file where there was none). What POSIX leaves
+// open: the renames are not one step, so a crash or kill between them leaves the earlier files
+// replaced and a hidden ".psub-keep-*" file holding an old version beside each; and while they
+// run, another reader can see the new first file beside the old second one.
 void writeOutputs(const std::vector<OutputFile>& files);
 
 // Throws the OutputError that writeOutput(path, ...) would throw for the kind of target or an

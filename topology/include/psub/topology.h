@@ -114,6 +114,11 @@ void requireFinite(std::span<const float> xyz, const std::string& input, const s
 // first face without one. Unknown statements are reported once each in `warnings` (if given)
 // and skipped.
 Mesh readObj(const std::string& path, std::vector<std::string>* warnings = nullptr);
+
+// The whole of input file `path`. Only a regular file is read: a FIFO (opened without
+// blocking, so it cannot hang), a directory or a device throws InputError naming the path and
+// what it is, as does a file that cannot be opened, read or held in memory.
+std::string readInputFile(const std::string& path);
 Mesh parseObj(std::string_view text, const std::string& name,
               std::vector<std::string>* warnings = nullptr);
 
