@@ -295,6 +295,15 @@ TEST(FaceVaryingObj, SomeFacesWithoutVtDropTheChannelWithAWarning) {
     EXPECT_NE(warnings[0].find("in.obj:5: face 1 lacks a texture coordinate"), std::string::npos) << warnings[0];
 }
 
+TEST(FaceVaryingObj, VtIndicesWithoutAnyVtStatementKeepNoChannel) {
+    std::vector<std::string> warnings;
+    const Mesh mesh = parseObj("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1/1 2/2 3/3\n", "in.obj", &warnings);
+    EXPECT_TRUE(mesh.uv.empty());
+    EXPECT_EQ(mesh.faces.faceCount(), 1u);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("in.obj: faces name texture coordinates but the file has no vt statement"), std::string::npos);
+}
+
 TEST(FaceVaryingObj, BadVtIsAnErrorNamingFileAndLine) {
     const std::string head = "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n";
     const auto error = [&](const std::string& tail) { return inputErrorOf([&] { parseObj(head + tail, "in.obj"); }); };

@@ -157,7 +157,11 @@ private:
     void finishUv() {
         FaceVarying& uv = mesh_.uv;
         const Index count = uv.valueCount();
-        if (firstFaceWithoutUv_ != kNoIndex && anyUvNamed_) {
+        if (anyUvNamed_ && count == 0) {  // no `vt` statement at all: nothing to refer to
+            if (warnings_)
+                warnings_->push_back(name_ + ": faces name texture coordinates but the file has no vt statement; ignoring them");
+            uv.corners.clear();
+        } else if (firstFaceWithoutUv_ != kNoIndex && anyUvNamed_) {
             if (warnings_)
                 warnings_->push_back(describeFace(mesh_.source, firstFaceWithoutUv_) +
                                      " lacks a texture coordinate at some corner while others name one; ignoring all texture coordinates");
