@@ -228,7 +228,8 @@ int subdividePS(const SubdivideOptions& o, const Loaded& loaded) {
     }
     writeSurface(o, surface, loaded);
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s%s) in %.1f ms\n", o.output.c_str(),
-                finest.vertexCount, finest.faceCount(), what.c_str(), backendNote.c_str(), msSince(start));
+                finest.vertexCount, refinement.uv.empty() ? finest.faceCount() : Index(refinement.uv.faceOffsets.size() - 1),
+                what.c_str(), backendNote.c_str(), msSince(start));
     return 0;
 }
 

@@ -285,7 +285,23 @@ TEST(FaceVaryingObj, SomeFacesWithoutVtDropTheChannelWithAWarning) {
                                "f 1/1 2/2 3/3\nf 1 3 4\n", "in.obj", &warnings);
     EXPECT_TRUE(mesh.uv.empty());
     ASSERT_EQ(warnings.size(), 1u);
-    EXPECT_NE(warnings[0].find("in.obj:9: face 2 names no texture coordinates"), std::string::npos) << warnings[0];
+    EXPECT_NE(warnings[0].find("in.obj:9: face 2 lacks a texture coordinate"), std::string::npos) << warnings[0];
+    // A face where only some corners name one counts as a face without them.
+    warnings.clear();
+    const Mesh mixed = parseObj("v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3\n", "in.obj", &warnings);
+    EXPECT_TRUE(mixed.uv.empty());
+    EXPECT_EQ(mixed.faces.faceCount(), 1u);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("in.obj:5: face 1 lacks a texture coordinate"), std::string::npos) << warnings[0];
+}
+
+TEST(FaceVaryingObj, VtIndicesWithoutAnyVtStatementKeepNoChannel) {
+    std::vector<std::string> warnings;
+    const Mesh mesh = parseObj("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1/1 2/2 3/3\n", "in.obj", &warnings);
+    EXPECT_TRUE(mesh.uv.empty());
+    EXPECT_EQ(mesh.faces.faceCount(), 1u);
+    ASSERT_EQ(warnings.size(), 1u);
+    EXPECT_NE(warnings[0].find("in.obj: faces name texture coordinates but the file has no vt statement"), std::string::npos);
 }
 
 TEST(FaceVaryingObj, BadVtIsAnErrorNamingFileAndLine) {
@@ -295,7 +311,6 @@ TEST(FaceVaryingObj, BadVtIsAnErrorNamingFileAndLine) {
     EXPECT_NE(error("f 1/1 2/2 3/0\n").find("in.obj:7: face 1: texture-coordinate index 0"), std::string::npos);
     EXPECT_NE(error("f 1/1 2/2 3/-4\n").find("in.obj:7: face 1: relative texture-coordinate index -4"), std::string::npos);
     EXPECT_NE(error("f 1/1 2/2 3/x\n").find("in.obj:7: face 1: bad texture-coordinate reference 'x'"), std::string::npos);
-    EXPECT_NE(error("f 1/1 2/2 3\n").find("in.obj:7: face 1: some corners name a texture coordinate"), std::string::npos);
     EXPECT_NE(error("vt 0 abc\n").find("in.obj:7: texture coordinate 4: expected a number, got 'abc'"), std::string::npos);
     EXPECT_NE(error("vt 0 nan\n").find("in.obj:7: texture coordinate 4: v is not finite"), std::string::npos);
     EXPECT_NE(error("vt inf 0\n").find("in.obj:7: texture coordinate 4: u is not finite"), std::string::npos);

@@ -1,6 +1,7 @@
 // OBJ reading (fast, line-accurate errors) and formatting (psub::output writes the text).
 #include "psub/topology.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -156,10 +157,14 @@ private:
     void finishUv() {
         FaceVarying& uv = mesh_.uv;
         const Index count = uv.valueCount();
-        if (firstFaceWithoutUv_ != kNoIndex && !uv.corners.empty()) {
+        if (anyUvNamed_ && count == 0) {  // no `vt` statement at all: nothing to refer to
+            if (warnings_)
+                warnings_->push_back(name_ + ": faces name texture coordinates but the file has no vt statement; ignoring them");
+            uv.corners.clear();
+        } else if (firstFaceWithoutUv_ != kNoIndex && anyUvNamed_) {
             if (warnings_)
                 warnings_->push_back(describeFace(mesh_.source, firstFaceWithoutUv_) +
-                                     " names no texture coordinates while other faces do; ignoring all texture coordinates");
+                                     " lacks a texture coordinate at some corner while others name one; ignoring all texture coordinates");
             uv.corners.clear();
         }
         for (Index f = 0; f < mesh_.faces.faceCount() && !uv.corners.empty(); ++f)
@@ -220,14 +225,14 @@ private:
             corners_.push_back(Index(resolved));
             const std::size_t slash = token.find('/');
             const Index uvIndex = slash == std::string_view::npos ? kNoIndex : uvReference(token.substr(slash + 1), f, lineNo);
-            if (corners_.size() > 1 && (uvIndex == kNoIndex) != (uvCorners_.empty()))
-                throw InputError(at(name_, lineNo) + "face " + std::to_string(std::uint64_t(f) + 1) +
-                                 ": some corners name a texture coordinate and some do not");
-            if (uvIndex != kNoIndex) uvCorners_.push_back(uvIndex);
+            uvCorners_.push_back(uvIndex);
+            anyUvNamed_ = anyUvNamed_ || uvIndex != kNoIndex;
         }
         mesh_.faces.addFace(corners_);
-        if (uvCorners_.empty() && firstFaceWithoutUv_ == kNoIndex) firstFaceWithoutUv_ = f;
-        mesh_.uv.corners.insert(mesh_.uv.corners.end(), uvCorners_.begin(), uvCorners_.end());
+        // A face with a corner that names no texture coordinate is a face without them.
+        const bool hasUv = std::find(uvCorners_.begin(), uvCorners_.end(), kNoIndex) == uvCorners_.end();
+        if (!hasUv && firstFaceWithoutUv_ == kNoIndex) firstFaceWithoutUv_ = f;
+        if (hasUv) mesh_.uv.corners.insert(mesh_.uv.corners.end(), uvCorners_.begin(), uvCorners_.end());
         uvCorners_.clear();
         mesh_.source.faceLine.push_back(lineNo);
     }
@@ -237,6 +242,7 @@ private:
     std::set<std::string> unknown_;
     std::vector<Index> corners_, uvCorners_;
     Index firstFaceWithoutUv_ = kNoIndex;
+    bool anyUvNamed_ = false;
     Mesh mesh_;
 };
 

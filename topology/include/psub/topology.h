@@ -110,8 +110,8 @@ void requireFinite(std::span<const float> xyz, const std::string& input, const s
 // and comments, accepts CRLF and `\` continuation
 // lines. Throws InputError naming file and line for unreadable files, malformed numbers,
 // non-finite coordinates or texture coordinates and indices (v or vt) that are zero or out of
-// range. A file where only some faces name `vt` loses the channel, with a warning naming the
-// first face without one. Unknown statements are reported once each in `warnings` (if given)
+// range. A file where some face lacks a `vt` at some corner while others name one loses the
+// channel, with a warning naming the first such face; so does one with no `vt` statement. Unknown statements are reported once each in `warnings` (if given)
 // and skipped.
 Mesh readObj(const std::string& path, std::vector<std::string>* warnings = nullptr);
 
