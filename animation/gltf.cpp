@@ -730,6 +730,7 @@ void readCage(const Context& cx, GltfAsset& asset) {
         asset.mesh.uv.width = 2;
         asset.mesh.uv.values = std::move(extras.uvs);
         asset.mesh.uv.corners = std::move(extras.gltfCorners);
+        separateSharedValues(asset.mesh);  // a glTF vertex whose copies were kept apart
         if (extras.primitivesWithoutUv > 0)
             asset.warnings.push_back(meshName + ": " + std::to_string(extras.primitivesWithoutUv) +
                                      " primitives without TEXCOORD_0 get UV (0, 0)");

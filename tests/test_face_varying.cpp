@@ -337,6 +337,22 @@ TEST(FaceVaryingObj, CheckFaceVaryingValidatesInMemoryMeshes) {
               std::string::npos);
 }
 
+// A value named at two vertices (an OBJ `vt` reused across vertices) gets one copy per further
+// vertex, appended: the channel then checks, keeps the numbers per corner, and keeps the line.
+TEST(FaceVaryingObj, AValueNamedAtTwoVerticesIsCopied) {
+    const std::string text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                             "f 1/1 2/2 3/3\nf 1/1 3/3 4/2\n";
+    Mesh mesh = parseObj(text, "shared.obj");
+    ASSERT_EQ(mesh.uv.valueCount(), 4u);  // vt 2 copied for vertex 4
+    EXPECT_NO_THROW(checkMesh(mesh));
+    const std::vector<Index> corners{0, 1, 2, 0, 2, 3};
+    EXPECT_EQ(mesh.uv.corners, corners);
+    EXPECT_EQ(mesh.uv.values[6], 1.0);
+    EXPECT_EQ(mesh.uv.values[7], 0.0);
+    ASSERT_EQ(mesh.uv.valueLine.size(), 4u);
+    EXPECT_EQ(mesh.uv.valueLine[3], 6u);
+}
+
 // ---------------------------------------------------------------------------------------
 // The channel's tables
 

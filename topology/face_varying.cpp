@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <initializer_list>
+#include <map>
+#include <utility>
+#include <vector>
 
 namespace psub {
 
@@ -42,6 +45,26 @@ void checkFaceVarying(const Mesh& mesh) {
                                  "; a texture coordinate must belong to one vertex");
             vertexOf[value] = v;
         }
+}
+
+void separateSharedValues(Mesh& mesh) {
+    FaceVarying& uv = mesh.uv;
+    if (uv.empty() || uv.width == 0) return;
+    const Index count = uv.valueCount();
+    std::vector<Index> vertexOf(count, kNoIndex);
+    std::map<std::pair<Index, Index>, Index> copies;  // (value, vertex) -> its copy
+    for (std::size_t h = 0; h < uv.corners.size() && h < mesh.faces.verts.size(); ++h) {
+        const Index value = uv.corners[h], v = mesh.faces.verts[h];
+        if (value >= count) continue;
+        if (vertexOf[value] == kNoIndex) vertexOf[value] = v;
+        if (vertexOf[value] == v) continue;
+        const auto [copy, fresh] = copies.try_emplace({value, v}, uv.valueCount());
+        if (fresh) {
+            for (std::uint32_t k = 0; k < uv.width; ++k) uv.values.push_back(uv.values[std::size_t(value) * uv.width + k]);
+            if (value < uv.valueLine.size()) uv.valueLine.push_back(uv.valueLine[value]);
+        }
+        uv.corners[h] = copy->second;
+    }
 }
 
 FaceVaryingLevel faceVaryingBase(const Mesh& mesh, const Connectivity& c) {

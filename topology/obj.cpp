@@ -178,6 +178,7 @@ private:
             uv.values.clear();
             uv.valueLine.clear();
         }
+        separateSharedValues(mesh_);
     }
 
     // The `vt` part of a face entry (after the first '/'), resolved, or kNoIndex when absent.

@@ -265,6 +265,12 @@ Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess
 // naming the file, line and face (or value); does nothing when the channel is empty.
 void checkFaceVarying(const Mesh& mesh);
 
+// Gives each value that faces name at two or more different vertices (an OBJ `vt` reused
+// across vertices, a glTF vertex whose copies were kept apart) one copy per further vertex,
+// appended after the values (same numbers, same line), so that every value belongs to one
+// vertex. Indices out of range are left for checkFaceVarying to report.
+void separateSharedValues(Mesh& mesh);
+
 // One level of a face-varying channel: the level's faces over face-varying vertices (a face
 // that straddles a seam of the parent level split into two triangles, f's side first), their
 // connectivity, and per position half-edge h of the level (Faces::verts order) the
