@@ -24,10 +24,10 @@ fi
 if [ "$mode" = sanitize ]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPSUB_SANITIZE=ON >/dev/null
   cmake --build build-asan -j "$(nproc)"
-  # The package tests (they install and build consumer projects) and the Node glTF validator
-  # check no code of ours that the plain build's run does not: left out here to keep CI short.
+  # The Node glTF validator on the bundled file runs no code of ours: the plain run has it.
+  # (The package tests are not defined in a sanitizer build.)
   ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-    ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -E '^(Package|GltfValidator)[.]'
+    ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -E '^GltfValidator[.]'
   exit 0
 fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DPSUB_WERROR=ON >/dev/null
