@@ -6,13 +6,18 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
-scripts/install-packages.sh clang libclang-rt-14-dev cmake ninja-build libosd-dev libcli11-dev libeigen3-dev libpng-dev \
+scripts/install-packages.sh clang libclang-rt-14-dev cmake ninja-build libosd-dev libcli11-dev libeigen3-dev libpng-dev libjpeg-dev \
   libtinygltf-dev libstb-dev nlohmann-json3-dev libglm-dev
 
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DPSUB_FUZZ=ON -DPSUB_BUILD_TESTS=OFF -DPSUB_BUILD_CLI=OFF -DPSUB_BUILD_VULKAN=OFF >/dev/null
 cmake --build build-fuzz -j "$(nproc)" --target fuzz_obj fuzz_refine fuzz_gltf fuzz_compare
 
+# Every PSub library must carry libFuzzer's coverage instrumentation, or the fuzzers run blind
+# (they would see only the harness's own branches).
+for library in $(find build-fuzz -name 'libpsub_*.a'); do
+  nm "$library" 2>/dev/null | grep -q __sanitizer_cov || { echo "fuzz: $library has no coverage instrumentation" >&2; exit 1; }
+done
 mkdir -p build-fuzz/artifacts
 for target in fuzz_obj fuzz_refine fuzz_gltf fuzz_compare; do
   corpus=build-fuzz/corpus/$target

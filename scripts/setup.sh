@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 mode=${1:-demo}
 case "$mode" in demo | test | sanitize) ;; *) echo "usage: scripts/setup.sh demo|test|sanitize" >&2; exit 2 ;; esac
 
-packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev libeigen3-dev libpng-dev
+packages=(cmake ninja-build g++ pkg-config python3 libosd-dev libcli11-dev libgtest-dev libeigen3-dev libpng-dev libjpeg-dev
           libtinygltf-dev libstb-dev nlohmann-json3-dev libglm-dev
           libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers glslang-tools nodejs
           libglfw3-dev xvfb xauth)

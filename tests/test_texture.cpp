@@ -1,4 +1,4 @@
-// Textured rendering: PNG and JPEG decoding (stb_image) and its errors; the CPU mip levels;
+// Textured rendering: PNG and JPEG decoding (libpng, libjpeg-turbo) and its errors; the CPU mip levels;
 // the renderer's texture path on hand-made per-corner UVs (a 2x2 checker seen head-on, two UV
 // islands meeting at a seam, minification through the mip chain, the factor against the flat
 // colour, bad UVs refused); `psub render --texture` errors. Every renderer test runs with the
@@ -42,6 +42,20 @@ bool noVulkanAllowed() {
 
 std::vector<std::uint8_t> bytesOf(const std::string& s) { return {s.begin(), s.end()}; }
 
+void appendBytes(void* context, void* data, int size) {
+    auto* out = static_cast<std::vector<std::uint8_t>*>(context);
+    const auto* bytes = static_cast<const std::uint8_t*>(data);
+    for (int i = 0; i < size; ++i) out->push_back(bytes[i]);
+}
+
+// A baseline JPEG of `image` (stb_image_write); empty if the writer fails.
+std::vector<std::uint8_t> encodeJpeg(const Image& image, int quality) {
+    std::vector<std::uint8_t> jpeg;
+    if (!stbi_write_jpg_to_func(appendBytes, &jpeg, int(image.width), int(image.height), 4, image.rgba.data(), quality))
+        jpeg.clear();
+    return jpeg;
+}
+
 std::string errorOf(const std::vector<std::uint8_t>& bytes, const std::string& name) {
     try {
         decodeImage(bytes, name);
@@ -78,12 +92,8 @@ TEST(ImageDecode, JpegDecodesToOpaqueRgba) {
     const Image image = makeImage(32, 16, [](std::uint32_t x, std::uint32_t) {
         return x < 16 ? Rgba{220, 20, 20, 255} : Rgba{20, 20, 220, 255};
     });
-    std::vector<std::uint8_t> jpeg;
-    const auto append = [](void* context, void* data, int size) {
-        auto* out = static_cast<std::vector<std::uint8_t>*>(context);
-        out->insert(out->end(), static_cast<std::uint8_t*>(data), static_cast<std::uint8_t*>(data) + size);
-    };
-    ASSERT_TRUE(stbi_write_jpg_to_func(append, &jpeg, 32, 16, 4, image.rgba.data(), 100));
+    const std::vector<std::uint8_t> jpeg = encodeJpeg(image, 100);
+    ASSERT_FALSE(jpeg.empty());
     const Image decoded = decodeImage(jpeg, "t.jpg");
     ASSERT_EQ(decoded.width, 32u);
     ASSERT_EQ(decoded.height, 16u);
@@ -109,6 +119,41 @@ TEST(ImageDecode, BrokenImagesNameTheFile) {
     std::string wide = png;
     wide[16] = 0, wide[17] = 0, wide[18] = char(0x4e), wide[19] = char(0x20);
     EXPECT_NE(errorOf(bytesOf(wide), "wide.png").find("wide.png: cannot decode"), std::string::npos);
+}
+
+// A JPEG whose Huffman table (DHT segment) counts 16 x 17 = 272 codes, more than the 256 a table
+// can hold. stb_image (the decoder before libjpeg-turbo) wrote past its 257-entry size list on
+// this; found by fuzz_image once the libraries were built with coverage instrumentation.
+TEST(ImageDecode, AnOverfullJpegHuffmanTableIsRefused) {
+    // SOI; DHT of 0x123 bytes, table 0; the code counts per length (272 in all); the symbols
+    // (2 + 1 + 16 + 272 = 0x123 bytes with the length field); EOI.
+    std::vector<std::uint8_t> jpeg(7 + 16 + 272 + 2, 0);
+    const std::uint8_t head[7] = {0xFF, 0xD8, 0xFF, 0xC4, 0x01, 0x23, 0x00};
+    std::copy(std::begin(head), std::end(head), jpeg.begin());
+    std::fill(jpeg.begin() + 7, jpeg.begin() + 7 + 16, std::uint8_t(17));
+    jpeg[jpeg.size() - 2] = 0xFF, jpeg[jpeg.size() - 1] = 0xD9;
+    EXPECT_NE(errorOf(jpeg, "huffman.jpg").find("huffman.jpg: cannot decode the image: JPEG: "), std::string::npos)
+        << errorOf(jpeg, "huffman.jpg");
+}
+
+TEST(ImageDecode, BrokenJpegsNameTheFile) {
+    const Image image = filledImage(32, 16, {200, 30, 40, 255});
+    const std::vector<std::uint8_t> jpeg = encodeJpeg(image, 90);
+    ASSERT_FALSE(jpeg.empty());
+    // Cut in half: libjpeg would fill the rest with grey and warn; a warning is an error here.
+    const std::vector<std::uint8_t> cut(jpeg.begin(), jpeg.begin() + std::ptrdiff_t(jpeg.size() / 2));
+    EXPECT_NE(errorOf(cut, "cut.jpg").find("cut.jpg: cannot decode the image: JPEG: "), std::string::npos)
+        << errorOf(cut, "cut.jpg");
+    // The start-of-frame header (FF C0, then length, precision, height, width) claims 20000 rows.
+    std::vector<std::uint8_t> tall = jpeg;
+    for (std::size_t i = 0; i + 8 < tall.size(); ++i)
+        if (tall[i] == 0xFF && tall[i + 1] == 0xC0) {
+            tall[i + 5] = 0x4e, tall[i + 6] = 0x20;
+            break;
+        }
+    EXPECT_NE(errorOf(tall, "tall.jpg").find("tall.jpg: cannot decode the image: 32x20000 pixels is beyond the limit"),
+              std::string::npos)
+        << errorOf(tall, "tall.jpg");
 }
 
 TEST(ImageDecode, ReadImageNamesAMissingFile) {

@@ -1,5 +1,5 @@
-// libFuzzer target: any bytes through the texture decoder (psub::decodeImage, stb_image for
-// PNG and JPEG). Bad input must be a std::runtime_error, never a crash, a hang or a leak;
+// libFuzzer target: any bytes through the texture decoder (psub::decodeImage: libpng and
+// libjpeg-turbo). Bad input must be a std::runtime_error, never a crash, a hang or a leak;
 // a decoded image has exactly its RGBA pixels.
 #include "psub/image.h"
 

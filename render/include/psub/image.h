@@ -1,5 +1,5 @@
 // psub/image.h: pictures on the CPU: RGBA pixels, PNG files (libpng, written atomically),
-// PNG and JPEG decoding (stb_image, for textures),
+// PNG and JPEG decoding (libpng and libjpeg-turbo, for textures),
 // captions (stb_easy_font) and panels side by side. No Vulkan: the renderer (psub/render.h)
 // and the analysis plots (psub/analysis.h) both draw into these. Link psub::image.
 #pragma once
@@ -44,8 +44,8 @@ Image readPng(const std::string& path);
 inline constexpr std::uint32_t kMaxImageSide = 16384;
 inline constexpr std::uint64_t kMaxImagePixels = 64ull * 1024 * 1024;
 
-// A PNG or JPEG image (8-bit; grey, grey + alpha and RGB gain an opaque alpha) decoded with
-// stb_image into RGBA. `name` (the file, or "FILE.glb: image 0") starts every error message:
+// A PNG (libpng) or JPEG (libjpeg-turbo) image decoded into 8-bit RGBA (grey, grey + alpha and
+// RGB gain an opaque alpha; 16-bit PNG channels are reduced to 8 bits). `name` (the file, or "FILE.glb: image 0") starts every error message:
 // std::runtime_error for bytes that are not a PNG or JPEG, are broken, or exceed the limits.
 Image decodeImage(std::span<const std::uint8_t> bytes, const std::string& name);
 
