@@ -46,7 +46,13 @@ int main(int argc, char** argv) {
     const std::string model = argv[1];
     const int levels = std::stoi(argv[2]), frames = argc > 3 ? std::stoi(argv[3]) : 20,
               rounds = argc > 4 ? std::stoi(argv[4]) : 3;
-    const psub::Mesh mesh = psub::bench::benchMesh(model);
+    psub::Mesh mesh;
+    try {
+        mesh = psub::bench::benchMesh(model);
+    } catch (const psub::InputError& e) {
+        std::fprintf(stderr, "psub_tiled_frame: error: %s\n", e.what());
+        return 1;
+    }
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
     options.tiled = true;
