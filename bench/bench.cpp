@@ -486,4 +486,8 @@ int runBench(const BenchOptions& options) {
     return 0;
 }
 
+Mesh benchMesh(const std::string& name) {
+    return name.rfind("torus:", 0) == 0 ? makeTorus(detail::torusSize(name)) : readObj(name);
+}
+
 }  // namespace psub::bench

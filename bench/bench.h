@@ -39,4 +39,8 @@ int runBench(const BenchOptions& options);
 // counter-clockwise seen from outside (positive volume).
 Mesh makeTorus(int n);
 
+// The mesh a benchmark program names on its command line: "torus:N", the generated N x N torus
+// (N from 3 to 9999, else InputError), or an OBJ file.
+Mesh benchMesh(const std::string& name);
+
 }  // namespace psub::bench

@@ -2,6 +2,7 @@
 // at least TARGET faces, evaluates one frame, and reports time, peak memory and bytes per
 // refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32 entries.
 //   psub_large_mesh [N=512] [TARGET_FACES=50000000]
+#include "bench.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -13,21 +14,6 @@
 #include <string>
 
 namespace {
-
-psub::Mesh torus(psub::Index n) {
-    psub::Mesh mesh;
-    mesh.faces.vertexCount = n * n;
-    for (psub::Index i = 0; i < n; ++i)
-        for (psub::Index j = 0; j < n; ++j) {
-            const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
-            mesh.positions.insert(mesh.positions.end(),
-                                  {(2 + std::cos(v)) * std::cos(u), (2 + std::cos(v)) * std::sin(u), std::sin(v)});
-            const psub::Index quad[4] = {i * n + j, ((i + 1) % n) * n + j, ((i + 1) % n) * n + (j + 1) % n,
-                                         i * n + (j + 1) % n};
-            mesh.faces.addFace(quad);
-        }
-    return mesh;
-}
 
 double peakGiB() {
     rusage usage{};
@@ -41,7 +27,7 @@ int main(int argc, char** argv) {
     const psub::Index n = argc > 1 ? psub::Index(std::stoul(argv[1])) : 512;
     const double target = argc > 2 ? std::stod(argv[2]) : 50e6;
     using Clock = std::chrono::steady_clock;
-    const psub::Mesh mesh = torus(n);
+    const psub::Mesh mesh = psub::bench::makeTorus(int(n));
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     int levels = 0;
     while (double(n) * n * std::pow(2.0, levels) < target) ++levels;

@@ -18,21 +18,6 @@
 
 namespace {
 
-psub::Mesh torus(psub::Index n) {
-    psub::Mesh mesh;
-    mesh.faces.vertexCount = n * n;
-    for (psub::Index i = 0; i < n; ++i)
-        for (psub::Index j = 0; j < n; ++j) {
-            const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
-            mesh.positions.insert(mesh.positions.end(),
-                                  {(2 + std::cos(v)) * std::cos(u), (2 + std::cos(v)) * std::sin(u), std::sin(v)});
-            const psub::Index quad[4] = {i * n + j, ((i + 1) % n) * n + j, ((i + 1) % n) * n + (j + 1) % n,
-                                         i * n + (j + 1) % n};
-            mesh.faces.addFace(quad);
-        }
-    return mesh;
-}
-
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v[v.size() / 2];
@@ -61,8 +46,13 @@ int main(int argc, char** argv) {
     const std::string model = argv[1];
     const int levels = std::stoi(argv[2]), frames = argc > 3 ? std::stoi(argv[3]) : 20,
               rounds = argc > 4 ? std::stoi(argv[4]) : 3;
-    const psub::Mesh mesh = model.rfind("torus:", 0) == 0 ? torus(psub::Index(std::stoul(model.substr(6))))
-                                                           : psub::readObj(model);
+    psub::Mesh mesh;
+    try {
+        mesh = psub::bench::benchMesh(model);
+    } catch (const psub::InputError& e) {
+        std::fprintf(stderr, "psub_tiled_frame: error: %s\n", e.what());
+        return 1;
+    }
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
     options.tiled = true;

@@ -2,6 +2,7 @@
 // and the stats table. The memory guard is in memory_guard.cpp; the engine itself is in
 // topology/ and stencils/.
 #include "commands.h"
+#include "evaluators.h"
 
 #include "memory_guard.h"
 
@@ -11,9 +12,6 @@
 #include "psub/output.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
-#if PSUB_HAVE_VULKAN
-#include "psub/vulkan_evaluator.h"
-#endif
 
 #include <algorithm>
 #include <cctype>
@@ -110,26 +108,22 @@ Faces finestFaces(const SurfaceTable& surface) {
     return faces;
 }
 
-// Refined positions from the Vulkan evaluator (float, per-level tables), and the device's
-// name; nothing, with `why`, when no Vulkan device can be used (or psub was built without).
+// Refined positions from the Vulkan backend (makeEvaluator: float, per-level tables, on a context
+// of its own), and the device's name; nothing, with `why`, when no Vulkan device can be used (or
+// psub was built without). The CPU path stays CpuEvaluator<double>: the written mesh in double.
 std::optional<std::vector<double>> evaluateOnVulkan(const Refinement& r, const std::vector<double>& control,
                                                     std::string& device, std::string& why) {
-#if PSUB_HAVE_VULKAN
     try {
-        VulkanContext context;
-        VulkanEvaluator evaluator(context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3);
+        const std::unique_ptr<Evaluator> evaluator =
+            makeEvaluator(Backend::Vulkan, tablesOf(r), TableForm::PerLevel, nullptr);
         const std::vector<float> in(control.begin(), control.end());
-        std::vector<float> out(3 * std::size_t(evaluator.refinedCount()));
-        evaluator.evaluate(in, out);
-        device = context.deviceName();
+        std::vector<float> out(3 * std::size_t(evaluator->refinedCount()));
+        evaluator->evaluate(in, out);
+        device = evaluator->device();
         return std::vector<double>(out.begin(), out.end());
-    } catch (const VulkanError& e) {
+    } catch (const std::runtime_error& e) {  // VulkanError, or built without Vulkan
         why = e.what();
     }
-#else
-    (void)r, (void)control, (void)device;
-    why = "this psub was built without Vulkan (PSUB_BUILD_VULKAN=OFF)";
-#endif
     return std::nullopt;
 }
 

@@ -4,20 +4,20 @@
 #include "commands.h"
 
 #include "analyze.h"
+#include "evaluators.h"
 
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
 #include "psub/output.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
-#if PSUB_HAVE_VULKAN
-#include "psub/vulkan_evaluator.h"
-#endif
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
+#include <stdexcept>
 #include <span>
 
 namespace psub::cli {
@@ -84,40 +84,46 @@ void writeWaveFrame(const std::vector<double>& rest, int frame, std::vector<floa
                 float(rest[3 * v + axis] + (axis == 1 ? 0.05 * std::sin(rest[3 * v] + 0.3 * frame) : 0));
 }
 
-// The engine's real path: tables built once, then frames of animated control points.
-// The demo's Vulkan line: the per-level tables on the Vulkan device, the same frames as the
-// CPU lines, and the largest difference to the CPU evaluator's result; or why it is not there.
+// The engine's real path: tables built once, then frames of animated control points on one
+// backend (makeEvaluator). Sorted host milliseconds of 25 frames; `out` holds the last frame.
+std::vector<double> timeWaveFrames(Evaluator& evaluator, const std::vector<double>& rest, std::vector<float>& control,
+                                   std::vector<float>& out) {
+    std::vector<double> frameMs;
+    for (int frame = 0; frame < 25; ++frame) {
+        writeWaveFrame(rest, frame, control);
+        const auto start = Clock::now();
+        evaluator.evaluate(control, out);
+        frameMs.push_back(msSince(start));
+    }
+    std::sort(frameMs.begin(), frameMs.end());
+    return frameMs;
+}
+
+template <class Reference>
+double largestDifference(const std::vector<float>& out, const Reference& reference) {
+    double worst = 0;
+    for (std::size_t i = 0; i < out.size(); ++i) worst = std::max(worst, std::abs(double(out[i]) - double(reference[i])));
+    return worst;
+}
+
+// The demo's Vulkan line: the per-level tables on the Vulkan backend, the same frames as the CPU
+// lines, and the largest difference to the CPU backend's result; or why it is not there.
 void printVulkanFrames(const Refinement& r, const Loaded& loaded) {
-#if PSUB_HAVE_VULKAN
     try {
-        VulkanContext context;
-        VulkanEvaluator gpu(context, r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3);
-        std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(gpu.refinedCount())),
+        const std::unique_ptr<Evaluator> gpu = makeEvaluator(Backend::Vulkan, tablesOf(r), TableForm::PerLevel, nullptr);
+        std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(gpu->refinedCount())),
             cpuOut(out.size());
-        std::vector<double> frameMs, gpuMs;
-        for (int frame = 0; frame < 25; ++frame) {
-            writeWaveFrame(loaded.mesh.positions, frame, control);
-            const auto start = Clock::now();
-            gpu.evaluate(control, out);
-            frameMs.push_back(msSince(start));
-            gpuMs.push_back(gpu.lastFrameTimes().totalMs);
-        }
-        std::sort(frameMs.begin(), frameMs.end());
-        std::sort(gpuMs.begin(), gpuMs.end());
-        CpuEvaluator<float> cpu(r.perLevel, r.factorized, r.surface, TableForm::PerLevel);
-        cpu.evaluate(control, cpuOut);
-        double worst = 0;
-        for (std::size_t i = 0; i < out.size(); ++i) worst = std::max(worst, std::abs(double(out[i]) - cpuOut[i]));
-        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (GPU %.3f ms; %s)  max |vulkan - cpu| = %.2g\n",
-                    "vulkan", frameMs[frameMs.size() / 2], frameMs.front(), gpuMs[gpuMs.size() / 2],
-                    context.deviceName().c_str(), worst);
-    } catch (const VulkanError& e) {
+        const std::vector<double> frameMs = timeWaveFrames(*gpu, loaded.mesh.positions, control, out);
+        const StageTimes stages = gpu->lastTimes();
+        makeEvaluator(Backend::Cpu, tablesOf(r), TableForm::PerLevel, nullptr)->evaluate(control, cpuOut);
+        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (last frame: upload %.3f, submit to fence %.3f, "
+                    "read back %.3f ms; %s)  max |vulkan - cpu| = %.2g\n",
+                    "vulkan", frameMs[frameMs.size() / 2], frameMs.front(), stages.uploadMs,
+                    stages.evaluateMs + stages.normalsMs, stages.readbackMs, gpu->device().c_str(),
+                    largestDifference(out, cpuOut));
+    } catch (const std::runtime_error& e) {  // VulkanError, or psub built without Vulkan
         std::printf("  %-10s  unavailable: %s\n", "vulkan", e.what());
     }
-#else
-    (void)r, (void)loaded;
-    std::printf("  %-10s  unavailable: psub was built without Vulkan\n", "vulkan");
-#endif
 }
 
 void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<double>& rulePositions) {
@@ -135,23 +141,14 @@ void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<do
                 r.perLevel.controlCount);
     std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(r.perLevel.refinedCount()));
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
-        CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, form);
-        std::vector<double> frameMs;
-        for (int frame = 0; frame < 25; ++frame) {
-            writeWaveFrame(loaded.mesh.positions, frame, control);
-            const auto start = Clock::now();
-            evaluator.evaluate(control, out);
-            frameMs.push_back(msSince(start));
-        }
-        std::sort(frameMs.begin(), frameMs.end());
+        const std::unique_ptr<Evaluator> evaluator = makeEvaluator(Backend::Cpu, tablesOf(r), form, nullptr);
+        const std::vector<double> frameMs = timeWaveFrames(*evaluator, loaded.mesh.positions, control, out);
         // The rest pose once more, against the readable rule path.
         std::copy(loaded.mesh.positions.begin(), loaded.mesh.positions.end(), control.begin());
-        evaluator.evaluate(control, out);
-        double worst = 0;
-        for (std::size_t i = 0; i < out.size(); ++i) worst = std::max(worst, std::abs(double(out[i]) - rulePositions[i]));
-        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (%d threads)  max |table - rules| = %.2g\n",
+        evaluator->evaluate(control, out);
+        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (%s)  max |table - rules| = %.2g\n",
                     form == TableForm::PerLevel ? "per-level" : "factorized", frameMs[frameMs.size() / 2],
-                    frameMs.front(), evaluator.threads(), worst);
+                    frameMs.front(), evaluator->device().c_str(), largestDifference(out, rulePositions));
     }
     printVulkanFrames(r, loaded);
 }
@@ -180,10 +177,11 @@ void writeDemoMeshes(const DemoOptions& options, const std::string& model, const
 
 int runDemo(const DemoOptions& options) {
     const std::string model = options.model.empty() ? dataDir() + "/cow.obj" : options.model;
-    std::printf("PSub demo: the P-S subdivision scheme (Liu, Yang, Guan) on %s\n\n", model.c_str());
     const auto start = Clock::now();
     const Loaded loaded = load(model);
     checkCoordinateRange(loaded.mesh, Precision::Float);  // it also times the float evaluators
+    // The header after a successful load: bad input gives only its one error line.
+    std::printf("PSub demo: the P-S subdivision scheme (Liu, Yang, Guan) on %s\n\n", model.c_str());
     const Faces& faces = loaded.mesh.faces;
     const bool preprocess = needsPreprocessing(faces, loaded.checked.connectivity, Preprocess::Auto);
     std::printf("Loaded and checked in %.1f ms. %s\n\n", msSince(start),

@@ -30,6 +30,7 @@ using test::load;
 TEST(RobustRules, WeightsSumToOneAndDifferFromThePaperOnlyAtValenceTwo) {
     for (Index n = 2; n <= 64; ++n) {
         const VertexWeights paper = quadVertexWeights(n, Rules::Paper), robust = quadVertexWeights(n, Rules::Robust);
+        // Tolerance 1e-15: a sum of 2n + 1 weights rounds by a few units of 2^-53 = 1.1e-16.
         EXPECT_NEAR(robust.centre + n * robust.edge + n * robust.diagonal, 1.0, 1e-15) << "n " << n;
         if (n == 2) continue;
         EXPECT_EQ(robust.centre, paper.centre) << "n " << n;
@@ -121,6 +122,8 @@ TEST(LocalMesh, IsAValidDiskAroundAnInteriorVertexOfTheValence) {
         const CheckedMesh checked = checkMesh(local.mesh);
         EXPECT_EQ(checked.connectivity.valence[0], n);
         EXPECT_EQ(checked.connectivity.kind[0], VertexKind::Interior);
+        // Each of the n sectors is a 3 x 3 grid of quads: 9 faces and 4 x 4 = 16 vertices, less
+        // the centre and the 3 on the edge it shares with the next sector: 12 of its own.
         EXPECT_EQ(local.mesh.faces.faceCount(), n * 9);
         EXPECT_EQ(local.mesh.faces.vertexCount, 1 + n * 12);
         for (Index v = 1; v < local.mesh.faces.vertexCount; ++v) {
@@ -137,6 +140,7 @@ TEST(LocalMatrix, RowsSumToOneAndTheThreeRingBlockIsInvariant) {
     for (Index n : {2u, 3u, 5u, 8u})
         for (Rules rules : {Rules::Paper, Rules::Robust}) {
             const LocalMatrix small = psTwoStepMatrix(n, rules, 3), large = psTwoStepMatrix(n, rules, 5);
+            // The centre and per sector (r + 1)^2 - 1 - r vertices for r rings: 12 (r = 3), 30 (r = 5).
             ASSERT_EQ(small.size(), 1 + 12 * n);
             ASSERT_EQ(large.size(), 1 + 30 * n);
             for (std::size_t r = 0; r < small.size(); ++r) {
@@ -193,6 +197,8 @@ TEST(LocalMatrix, CentreRowOfTheRegularVertexIsTwoStepsOfTheRules) {
 
 TEST(Eigenvalues, RegularVertexTwoStepsAreOneHalfHalfQuarter) {
     const std::vector<std::complex<double>> ev = eigenvalues(psTwoStepMatrix(4, Rules::Paper));
+    // Two P-S steps at valence 4 are one dyadic step of the regular quad spline: halving the
+    // parameters scales 1, u, v, uv by 1, 1/2, 1/2, 1/4. Tolerance 1e-10: an iterative eigensolver.
     const double expected[4] = {1, 0.5, 0.5, 0.25};
     for (int k = 0; k < 4; ++k) {
         EXPECT_NEAR(ev[std::size_t(k)].real(), expected[k], 1e-10) << "lambda" << k;
@@ -201,6 +207,9 @@ TEST(Eigenvalues, RegularVertexTwoStepsAreOneHalfHalfQuarter) {
 }
 
 TEST(Eigenvalues, SubdominantAtValenceThreeAndFive) {
+    // Regression values: measured with `psub analyze --valence 3,5` (Eigen's eigensolver on the
+    // two-step matrix), 2026-12-02, as listed in docs/shape-rules.md; tolerance 1e-6 = the six
+    // digits kept.
     EXPECT_NEAR(eigenvalues(psTwoStepMatrix(3, Rules::Paper))[1].real(), 0.400857, 1e-6);
     EXPECT_NEAR(eigenvalues(psTwoStepMatrix(5, Rules::Paper))[1].real(), 0.560306, 1e-6);
 }
@@ -211,6 +220,9 @@ TEST(Eigenvalues, CatmullClarkFromOpenSubdivEqualsTheClosedForm) {
         EXPECT_NEAR(ev[0].real(), 1.0, 1e-12) << "n " << n;
         EXPECT_NEAR(ev[1].real(), catmarkSubdominantClosedForm(n), 1e-12) << "n " << n;
     }
+    // lambda1 = (5 + cos(2 pi/n) + cos(pi/n) sqrt(2 (9 + cos(2 pi/n)))) / 16: n = 4 gives
+    // (5 + 0 + sqrt(1/2) sqrt(18)) / 16 = 8/16; n = 3 gives (4.5 + 0.5 sqrt(17)) / 16 = 0.4100970
+    // (tolerance 1e-6: the digits written here).
     EXPECT_NEAR(catmarkSubdominantClosedForm(4), 0.5, 1e-15);
     EXPECT_NEAR(catmarkSubdominantClosedForm(3), 0.410097, 1e-6);
 }
@@ -223,6 +235,8 @@ TEST(Smoothness, PaperRulesFailAtValenceTwoAndRobustRulesPass) {
     const ValenceReport robust = analyzeValence(2, Rules::Robust);
     EXPECT_TRUE(robust.c1Necessary);
     EXPECT_TRUE(robust.characteristicMapInjective);
+    // Regression value: measured with `psub analyze --valence 2 --rules robust`, 2026-12-02
+    // (tolerance 1e-10: the eigensolver's).
     EXPECT_NEAR(robust.lambda1, 0.25, 1e-10);
     EXPECT_LT(robust.normalSpreadDegrees.back(), robust.normalSpreadDegrees[1]);
 }
@@ -240,6 +254,7 @@ TEST(Smoothness, PaperRulesPassAtValenceThreeToEight) {
         EXPECT_LT(r.normalSpreadDegrees.back(), r.normalSpreadDegrees.front() / 10) << "n " << n;
         EXPECT_NEAR(r.ccLambda1, r.ccLambda1ClosedForm, 1e-12);
     }
+    // Valence 4: lambda3 / lambda1^2 = (1/4) / (1/2)^2 (RegularVertexTwoStepsAreOneHalfHalfQuarter).
     EXPECT_NEAR(analyzeValence(4, Rules::Paper).lambda3OverLambda1Squared, 1.0, 1e-10);
 }
 
@@ -252,6 +267,7 @@ Mesh unitSquare(double z, double shift) {
 TEST(Fidelity, MeasuresOfTheCubeByHand) {
     const auto cube = load(test::dataPath("cube.obj"));
     const MeshMeasures m = measureMesh(cube.mesh.faces, cube.mesh.positions);
+    // The cube [-1, 1]^3: volume 2^3, area 6 * 2^2, diagonal sqrt(3 * 2^2).
     EXPECT_NEAR(m.volume, 8, 1e-12);
     EXPECT_NEAR(m.area, 24, 1e-12);
     for (std::size_t a = 0; a < 3; ++a) {
@@ -295,11 +311,15 @@ TEST(Fidelity, IdenticalMeshesAreAtDistanceZero) {
 TEST(Fidelity, CubeShrinksToAFewPercentOfCatmullClarkAtEqualFaces) {
     const auto cube = load(test::dataPath("cube.obj"));
     const Fidelity f = compareWithCatmark(cube.mesh, cube.checked.connectivity, 4);
+    // 6 quads; a P-S step doubles the faces, a Catmull-Clark level quadruples them: 6 * 2^4 = 6 * 4^2.
     EXPECT_EQ(f.psFaces, 96u);
     EXPECT_EQ(f.ccFaces, 96u);
     EXPECT_NEAR(f.input.volume, 8, 1e-12);
     EXPECT_GT(f.ps.volume / f.cc.volume, 0.02);  // docs/scheme.md: about 3%
     EXPECT_LT(f.ps.volume / f.cc.volume, 0.05);
+    // Regression bound: measured with `psub compare cube.obj --levels 4 --json`, 2026-12-02:
+    // Hausdorff 0.629 against a Catmull-Clark box diagonal of 3.04, 0.21 (docs/shape-rules.md's
+    // paper column at n = 3 too); half of it kept as the bound.
     EXPECT_GT(f.hausdorff(), 0.1 * f.cc.diagonal());
     EXPECT_GE(f.hausdorff(), f.meanDistance());
     EXPECT_EQ(f.psToCc.size(), 96u * 2 * 6);  // 2 triangles per quad, 6 samples each
@@ -324,6 +344,7 @@ TEST(Fidelity, PlotIsAPngOfTheAdvertisedSize) {
         return (unsigned(std::uint8_t(png[at])) << 24) | (unsigned(std::uint8_t(png[at + 1])) << 16) |
                (unsigned(std::uint8_t(png[at + 2])) << 8) | unsigned(std::uint8_t(png[at + 3]));
     };
+    // IHDR width and height: the plot's fixed size (analysis/plot.cpp).
     EXPECT_EQ(be32(16), 960u);
     EXPECT_EQ(be32(20), 460u);
     EXPECT_THROW(writeFidelityPlot("/nonexistent-dir/x.png", f, "x"), OutputError);
@@ -356,8 +377,13 @@ TEST(BoundaryAspect, PaperBoundaryTrianglesGrowThreeTimesThinnerEachStep) {
     // grid's squares, yet 60 times better than the paper's at the median by level 11.
     const auto smooth = boundaryAspectByLevel(grid.mesh, grid.checked.connectivity, 11, Boundary::Smooth);
     const auto paper11 = boundaryAspectByLevel(grid.mesh, grid.checked.connectivity, 11, Boundary::Paper);
+    // Regression value: measured with `psub analyze --boundary-aspect grid4x4.obj
+    // --boundary-levels 11`, 2026-12-02: the 16 triangles doubled 6 times in 11 steps.
     EXPECT_EQ(smooth.back().triangles, 16u << 6);
+    // Every paper triangle has the same aspect: 2 * 3^10 = 118098 at level 11.
     EXPECT_GT(paper11.back().median, 1e5);
+    // Regression bound: measured with the same command, 2026-12-02: median 1885.5 against
+    // 118098, 63 times; 50 kept as the bound.
     EXPECT_LT(smooth.back().median, paper11.back().median / 50);
 }
 
@@ -384,6 +410,7 @@ TEST(AnalyzeCommand, JsonHasOneRecordPerValenceAndRulesWithTheStableFields) {
 TEST(AnalyzeCommand, TableAndUsageErrors) {
     const CommandResult table = psub("analyze --valence 4 --rules paper");
     ASSERT_EQ(table.status, 0);
+    // Valence 4: 1, 1/2, 1/2, 1/4 (derived in RegularVertexTwoStepsAreOneHalfHalfQuarter).
     EXPECT_NE(table.out.find("1.000000 0.500000 0.500000 0.250000"), std::string::npos) << table.out;
     EXPECT_EQ(psub("analyze --valence 1").status, 2);
     EXPECT_EQ(psub("analyze --valence 5..3").status, 2);
@@ -397,6 +424,7 @@ TEST(AnalyzeCommand, BoundaryAspectReportsBothModesPerLevel) {
     ASSERT_EQ(r.status, 0);
     EXPECT_EQ(countOf(r.out, "\"boundary\": \"paper\""), 3u);
     EXPECT_EQ(countOf(r.out, "\"boundary\": \"smooth\""), 3u);
+    // The grid's 16 boundary triangles at level 3: aspect 2 * 3^(3-1) (PaperBoundaryTrianglesGrow...).
     EXPECT_NE(r.out.find("{\"level\": 3, \"boundary\": \"paper\", \"triangles\": 16, \"worst_aspect\": 18"), std::string::npos)
         << r.out;
     EXPECT_EQ(psub("analyze --boundary-aspect '" + test::dataPath("cube.obj") + "'").status, 1);  // closed
@@ -418,8 +446,12 @@ TEST(CompareCommand, SmoothBoundaryGivesTheFlatGridCatmullClarksArea) {
     };
     const auto [smoothPS, smoothCC] = areas("smooth");
     EXPECT_NEAR(smoothPS, smoothCC, 1e-12);
+    // Regression value: measured with `psub compare grid4x4.obj --levels 4 --boundary smooth`
+    // (OpenSubdiv's 2 levels round the corners off), 2026-12-02; it is a multiple of 2^-4, so
+    // exact in double (tolerance 1e-12 for rounding only).
     EXPECT_NEAR(smoothCC, 15.6875, 1e-12);
     const auto [paperPS, paperCC] = areas("paper");
+    // The flat 4 x 4 grid of unit quads, its boundary kept: area 16.
     EXPECT_NEAR(paperPS, 16.0, 1e-12);
     EXPECT_EQ(psub("compare '" + test::dataPath("grid4x4.obj") + "' --levels 2 --boundary other").status, 2);
 }

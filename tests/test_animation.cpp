@@ -104,6 +104,8 @@ TEST(Procedural, EveryDeformerIsPeriodicInTime) {
             const std::vector<float> now = deformed(kind, rest, t);
             for (double later : {t + kProceduralPeriod, t + 3 * kProceduralPeriod, t - kProceduralPeriod}) {
                 const std::vector<float> then = deformed(kind, rest, later);
+                // Tolerance 1e-5: float coordinates up to 4 (ulp 4.8e-7) through a sine of a phase
+                // a few periods away (its float rounding scaled by the amplitude): a few ulps.
                 for (std::size_t i = 0; i < rest.size(); ++i)
                     ASSERT_NEAR(then[i], now[i], 1e-5) << proceduralName(kind) << " t=" << t << " value " << i;
             }
@@ -124,7 +126,7 @@ TEST(Procedural, WaveMovesOnlyTheUpAxisByTheDocumentedSine) {
         const double expected = rest[i + 1] + kWaveAmplitude * size *
                                                   std::sin(2 * kPi * rest[i] / (size / 2) -
                                                            2 * kPi * t / kProceduralPeriod);
-        EXPECT_NEAR(out[i + 1], expected, 1e-6);
+        EXPECT_NEAR(out[i + 1], expected, 1e-6);  // float results below 4: ulp 4.8e-7, 2 ulps
     }
 }
 
@@ -150,6 +152,7 @@ TEST(Procedural, BendPutsTheAxisOnAnArcOfTheDocumentedCurvature) {
     const std::vector<float> rest = lattice();
     const std::vector<float> out = deformed(Procedural::Bend, rest, kProceduralPeriod / 4);
     const double radius = 4.0 / kBendAngle;  // curvature kBendAngle / L
+    // Tolerance 1e-5: float results of sin/cos scaled by the radius (> L = 4): a few ulps of it.
     for (std::size_t i = 0; i < rest.size(); i += 3) {
         if (rest[i + 2] != 1.0f) continue;  // on the centre line in z: lands on the arc
         const double phi = (rest[i] - 2.0) / radius;
@@ -289,7 +292,7 @@ TEST_F(Gltf, WeldsSeamsAndTheRingSharedByTwoPrimitives) {
     EXPECT_EQ(asset.cageVertexOf[asset.primitiveFirstVertex[1]], cageVertex(asset, 2, 0));  // ring 2
     EXPECT_NO_THROW(checkMesh(asset.mesh));  // a manifold open cylinder, consistently oriented
     EXPECT_EQ(asset.mesh.source.path, (dir_ / "cylinder.gltf").string());
-    EXPECT_EQ(asset.meshNode, 2u);
+    EXPECT_EQ(asset.meshNode, 2u);  // gltf_models.h's nodes: root, mid, holder (the mesh), prop
     EXPECT_TRUE(asset.warnings.empty());
 }
 
@@ -305,6 +308,8 @@ TEST_F(Gltf, LoadsJointsWeightsAndInverseBindMatricesAsWritten) {
     const GltfSkin& skin = *asset.skin;
     EXPECT_EQ(skin.jointNodes, (std::vector<std::uint32_t>{0, 1}));
     ASSERT_EQ(skin.inverseBindMatrices.size(), 2u);
+    // Joint 1 ("mid") sits at y = 1, so its inverse bind matrix moves by -1 in y: element 13
+    // of the column-major 4 x 4 matrix; joint 0 at the origin has 0 there.
     EXPECT_EQ(skin.inverseBindMatrices[1][13], -1.0);
     EXPECT_EQ(skin.inverseBindMatrices[0][13], 0.0);
     ASSERT_EQ(skin.joints.size(), 4u * asset.mesh.faces.vertexCount);
@@ -319,7 +324,7 @@ TEST_F(Gltf, LoadsJointsWeightsAndInverseBindMatricesAsWritten) {
     const Index base = cageVertex(asset, 0, 0);  // weight 0 on joint 1: that slot reads joint 0
     EXPECT_EQ(skin.weights[4 * base], 1.0f);
     EXPECT_EQ(skin.joints[4 * base + 1], 0);
-    ASSERT_EQ(asset.nodes.size(), 4u);
+    ASSERT_EQ(asset.nodes.size(), 4u);  // root, mid, holder, prop
     EXPECT_EQ(asset.nodes[1].parent, 0);
     EXPECT_EQ(asset.nodes[1].name, "mid");
     EXPECT_EQ(asset.nodes[1].rest.translation, (std::array<double, 3>{0, 1, 0}));
@@ -381,6 +386,7 @@ TEST_F(Gltf, LinearRotationIsSlerped) {
         player.pose(*findClip(asset, "bend"), t, posed);
         const double halfAngle = t * kPi / 4;  // slerp: the angle grows linearly (nlerp would not)
         const auto& q = player.localTransform(1).rotation;
+        // Tolerance 1e-7: the keys are float quaternions (ulp of 1: 1.2e-7, half of it rounding).
         EXPECT_NEAR(q[0], 0, 1e-7);
         EXPECT_NEAR(q[1], 0, 1e-7);
         EXPECT_NEAR(q[2], std::sin(halfAngle), 1e-7) << "t=" << t;
@@ -418,6 +424,7 @@ TEST_F(Gltf, LoopingWrapsAndClampingHolds) {
     player.pose(bend, 0.25, reference);
     for (double t : {1.25, 3.25, -0.75}) {
         player.pose(bend, t, other);
+        // Float positions below 4 (ulp 4.8e-7) after times a whole number of loops apart: 2 ulps.
         for (std::size_t i = 0; i < reference.size(); ++i) ASSERT_NEAR(other[i], reference[i], 1e-6) << "t=" << t;
     }
     player.pose(bend, 1.0, reference, false);
@@ -445,6 +452,7 @@ TEST_F(Gltf, ClipOnANodeOutsideTheSkinChangesNothing) {
     std::vector<float> still(3 * player.vertexCount()), posed(still.size());
     player.staticPose(still);
     player.pose(*findClip(asset, "prop"), 1.0, posed);
+    // Clip "prop": (0, 0, 0) at time 0 to (5, 5, 5) at time 2, linear: half way at time 1.
     EXPECT_EQ(player.localTransform(3).translation, (std::array<double, 3>{2.5, 2.5, 2.5}));
     EXPECT_EQ(posed, still);
 }

@@ -4,7 +4,7 @@
 #include "psub/evaluate.h"
 #include "psub/stencils.h"
 #if PSUB_HAVE_VULKAN
-#include "psub/vulkan_evaluator.h"
+#include "vulkan_test_support.h"
 #endif
 
 #include "test_support.h"
@@ -110,21 +110,12 @@ TEST(EvaluateContract, TiledDrawingOrderIsTheTiledSurface) {
 }
 
 #if PSUB_HAVE_VULKAN
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
-
 TEST(EvaluateContract, VulkanBackendMatchesTheCpuAndRefusesTiled) {
+    VulkanOptions options;
+    options.validation = Validation::On;
     std::unique_ptr<VulkanContext> context;
-    try {
-        VulkanOptions options;
-        options.validation = Validation::On;
-        context = std::make_unique<VulkanContext>(options);
-    } catch (const VulkanError& e) {
-        if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-        FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-    }
+    test::makeContextOrSkip(context, options);
+    if (!context) return;
     const Case c = refined(test::dataPath("spot_control_mesh.obj"), 3);
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
         SCOPED_TRACE(int(form));

@@ -2,7 +2,6 @@
 // (formatGltf, checked by the Khronos validator), and psub subdivide's glTF path (--at).
 #include "gltf_models.h"
 #include "test_support.h"
-#include "test_support.h"
 
 #include "psub/animation.h"
 #include "psub/stencils.h"
@@ -11,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -204,11 +204,8 @@ TEST_F(GltfIo, BadTexcoordAccessorsAreRefused) {
 // ---------------------------------------------------------------------------------------
 // Reader: touching shells
 
-TEST_F(GltfIo, BoxesTouchingAlongAnEdgeLoadAsTwoShells) {
-    std::vector<float> positions;
-    std::vector<std::uint32_t> indices;
-    addBox({0, 0, 0}, positions, indices);
-    addBox({1, 1, 0}, positions, indices);  // shares the edge x = 1, y = 1, z in [0, 1]
+// One triangle-list primitive over `positions` and `indices`, its mesh on node 0 (no scene).
+ModelBuilder triangleMesh(const std::vector<float>& positions, const std::vector<std::uint32_t>& indices) {
     ModelBuilder b;
     tinygltf::Primitive primitive;
     primitive.attributes["POSITION"] = b.positions(positions);
@@ -220,14 +217,27 @@ TEST_F(GltfIo, BoxesTouchingAlongAnEdgeLoadAsTwoShells) {
     tinygltf::Node node;
     node.mesh = 0;
     b.model.nodes.push_back(node);
+    return b;
+}
+
+// True when one of the asset's warnings contains `part`.
+bool warnedOf(const GltfAsset& asset, const std::string& part) {
+    return std::any_of(asset.warnings.begin(), asset.warnings.end(),
+                       [&](const std::string& warning) { return contains(warning, part); });
+}
+
+TEST_F(GltfIo, BoxesTouchingAlongAnEdgeLoadAsTwoShells) {
+    std::vector<float> positions;
+    std::vector<std::uint32_t> indices;
+    addBox({0, 0, 0}, positions, indices);
+    addBox({1, 1, 0}, positions, indices);  // shares the edge x = 1, y = 1, z in [0, 1]
+    ModelBuilder b = triangleMesh(positions, indices);
 
     const GltfAsset asset = readGltf(write(b.model, "boxes.glb"));
     EXPECT_EQ(asset.mesh.faces.faceCount(), 24u);
     EXPECT_EQ(asset.mesh.faces.vertexCount, 16u);  // 14 after welding, the shared two un-welded
     EXPECT_EQ(asset.mesh.positions.size(), 48u);
-    bool warned = false;
-    for (const std::string& warning : asset.warnings) warned = warned || contains(warning, "touching shells");
-    EXPECT_TRUE(warned);
+    EXPECT_TRUE(warnedOf(asset, "touching shells"));
     const CheckedMesh checked = checkMesh(asset.mesh);  // manifold along every edge now
     EXPECT_EQ(checked.connectivity.boundaryEdgeCount, 0u);
     // Every cage vertex of box 2's faces lies in box 2.
@@ -250,23 +260,11 @@ TEST_F(GltfIo, AShellMeetingItselfIsCutOpen) {
     const std::vector<float> positions = {0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0, /**/ 0, 1, 0, 1, 1, 1, 2, 1, 1, 0, 0, 0};
     std::vector<std::uint32_t> indices;
     for (std::uint32_t q = 0; q < 3; ++q) indices.insert(indices.end(), {q, q + 1, q + 5, q, q + 5, q + 4});
-    ModelBuilder b;
-    tinygltf::Primitive primitive;
-    primitive.attributes["POSITION"] = b.positions(positions);
-    primitive.indices = b.indices(indices);
-    primitive.mode = TINYGLTF_MODE_TRIANGLES;
-    tinygltf::Mesh mesh;
-    mesh.primitives.push_back(primitive);
-    b.model.meshes.push_back(mesh);
-    tinygltf::Node node;
-    node.mesh = 0;
-    b.model.nodes.push_back(node);
+    ModelBuilder b = triangleMesh(positions, indices);
     const GltfAsset asset = readGltf(write(b.model, "moebius.glb"));
     EXPECT_EQ(asset.mesh.faces.faceCount(), 6u);
     EXPECT_EQ(asset.mesh.faces.vertexCount, 8u);  // 6 after welding, then the glued edge's 2 again
-    bool warned = false;
-    for (const std::string& warning : asset.warnings) warned = warned || contains(warning, "touching shells apart (1 edges");
-    EXPECT_TRUE(warned);
+    EXPECT_TRUE(warnedOf(asset, "touching shells apart (1 edges"));
     checkMesh(asset.mesh);
     for (Index f = 0; f < 6; ++f)  // each corner keeps its own glTF vertex's position
         for (Index k = 0; k < 3; ++k)
@@ -324,9 +322,7 @@ TEST_F(GltfIo, SeveralMaterialsKeepTheFirstWithAWarning) {
     ASSERT_TRUE(asset.material.has_value());
     EXPECT_EQ(asset.material->baseColorFactor, (std::array<double, 4>{0, 0, 1, 1}));
     EXPECT_FALSE(asset.material->baseColorTexture.has_value());
-    bool warned = false;
-    for (const std::string& warning : asset.warnings) warned = warned || contains(warning, "only material 1 is kept");
-    EXPECT_TRUE(warned);
+    EXPECT_TRUE(warnedOf(asset, "only material 1 is kept"));
 }
 
 TEST_F(GltfIo, BadMaterialsAndImagesAreRefused) {

@@ -57,7 +57,9 @@ TEST(HostileCrashLibrary, DistanceToANaNPointIsNotAnIndexOutOfTheGrid) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const std::vector<double> from = {nan, 0, 0, 1, 0, 0, 0, 1, 0};
     const std::vector<double> distances = surfaceDistances(triangle, from, triangle, target, 2);
-    EXPECT_EQ(distances.size(), 6u);  // computed (NaN where the NaN corner reaches), no crash
+    // One triangle sampled on its barycentric grid of m = 2: (m + 1)(m + 2) / 2 = 6 points,
+    // computed (NaN where the NaN corner reaches), no crash.
+    EXPECT_EQ(distances.size(), 6u);
 }
 
 std::string nested(std::size_t depth) {

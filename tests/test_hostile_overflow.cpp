@@ -9,7 +9,7 @@
 #include "psub/stencils.h"
 #include "psub/topology.h"
 #if PSUB_HAVE_VULKAN
-#include "psub/vulkan_evaluator.h"
+#include "vulkan_test_support.h"
 #endif
 
 #include <cmath>
@@ -182,13 +182,8 @@ TEST(HostileOverflowLibrary, CpuDoubleFactorized) { runCpu<double>(TableForm::Fa
 #if PSUB_HAVE_VULKAN
 TEST(HostileOverflowLibrary, VulkanPerLevelAndFactorized) {
     std::unique_ptr<VulkanContext> context;
-    try {
-        context = std::make_unique<VulkanContext>();
-    } catch (const VulkanError& e) {
-        const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-        if (allow && std::string(allow) == "1") GTEST_SKIP() << "no Vulkan device (allowed): " << e.what();
-        FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-    }
+    test::makeContextOrSkip(context, VulkanOptions{});
+    if (!context) return;
     const Cube cube;
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
         for (double bad : kBadValues) {

@@ -9,6 +9,7 @@
 #include "psub/stencils.h"
 #include "psub/vulkan_evaluator.h"
 #include "test_support.h"
+#include "vulkan_test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -29,10 +30,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-using test::noVulkanAllowed;
-
-// Synchronization validation too, except under AddressSanitizer: Debian's layer (1.3.239)
-// leaks with it (KhronosGroup/Vulkan-ValidationLayers#6033) and LeakSanitizer would fail the run.
 using test::kSanitized;
 
 // Under the sanitizers, Mesa's lavapipe stays loaded for the whole run: its first draw
@@ -41,40 +38,8 @@ using test::kSanitized;
 // leaked. Kept loaded, it stays reachable. Unsanitized builds and other drivers: no effect.
 [[maybe_unused]] const bool kLavapipePinned = kSanitized && ::dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE);
 
-VulkanOptions validated() {
-    VulkanOptions options;
-    options.validation = Validation::On;
-    options.synchronizationValidation = !kSanitized;
-    return options;
-}
-
-// Every test: its own validated context (or a failure; a skip only with
-// PSUB_ALLOW_NO_VULKAN=1), no validation message while it runs, none when it is destroyed.
-class Render : public ::testing::Test {
-protected:
-    void SetUp() override {
-        try {
-            context_ = std::make_unique<VulkanContext>(validated());
-        } catch (const VulkanError& e) {
-            if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-            FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-        }
-        ASSERT_TRUE(context_->validationEnabled());
-        totalBefore_ = vulkanValidationMessageTotal();
-    }
-    void TearDown() override {
-        if (!context_) return;
-        EXPECT_EQ(context_->validationMessageCount(), 0u)
-            << "validation messages; the last: " << context_->lastValidationMessage();
-        context_.reset();
-        EXPECT_EQ(vulkanValidationMessageTotal(), totalBefore_) << "validation messages on destruction (leaks?)";
-    }
-    VulkanContext& context() { return *context_; }
-
-private:
-    std::unique_ptr<VulkanContext> context_;
-    std::uint64_t totalBefore_ = 0;
-};
+// Every test: its own validated context, no validation message (vulkan_test_support.h).
+class Render : public test::ValidatedVulkanTest {};
 
 // A refined model with positions and normals from the CPU evaluator (float).
 struct Refined {
@@ -184,6 +149,7 @@ TEST_F(Render, RefinedCubeRendersANonEmptyImage) {
     EXPECT_EQ(renderer.triangleCount(), 2 * (cube.refinement.surface.faceOffsets.size() - 1));
     Image image;
     renderer.draw(cube.positions, cube.normals, cameraFor(cube.positions, o), image);
+    // small(): 256 x 256 RGBA. The framed cube covers most of it; a twentieth is the bound.
     ASSERT_EQ(image.width, 256u);
     ASSERT_EQ(image.height, 256u);
     ASSERT_EQ(image.rgba.size(), 256u * 256u * 4u);
@@ -215,6 +181,9 @@ TEST_F(Render, SilhouetteCoversTheFractionOfTheProjectedTriangles) {
     const double renderedFraction = double(notBackground(image, o.background)) / total;
     EXPECT_GT(expectedFraction, 0.1);
     EXPECT_LT(expectedFraction, 0.9);
+    // Bounds, not measurements: only pixels whose centre lies within rounding of an edge may
+    // differ; the silhouette's few hundred edge pixels are under 1% of the 65536 (0.5% of the
+    // image allowed) and under 1% of the covered pixels.
     EXPECT_NEAR(renderedFraction, expectedFraction, 0.005)
         << "expected " << expectedFraction << ", rendered " << renderedFraction;
     EXPECT_LE(double(mismatched), 0.01 * double(expectedCount)) << mismatched << " pixels differ from the CPU's coverage";
@@ -239,6 +208,8 @@ TEST_F(Render, CpuAndVulkanEvaluatorsGiveTheSamePicture) {
             worst = std::max(worst, std::abs(int(fromCpu.rgba[at + k]) - int(fromVulkan.rgba[at + k])));
         differing += worst > 2;
     }
+    // Bound: float CPU and Vulkan positions differ by a few ulps, which can move only pixels
+    // that an edge passes within rounding of: a handful, 4 allowed.
     EXPECT_LE(differing, 4u);
 }
 
@@ -269,6 +240,8 @@ TEST_F(Render, WireframesAddDarkPixels) {
         return image;
     };
     const Camera onSurface = cameraFor(cube.positions, small());
+    // Bounds: the refined cube's hundreds of edges cross the 256 x 256 image, thousands of
+    // pixels; the cage's 12 edges at least a few hundred.
     EXPECT_GT(darkened(draw(Wireframe::None, onSurface), draw(Wireframe::Refined, onSurface)), 1000u);
     Box box;  // the cage and the surface in view
     box.extend(cube.control);
@@ -322,7 +295,7 @@ TEST_F(Render, AnyPolygonIsDrawnAsAFan) {
     for (int v = 0; v < 9; ++v) normals.insert(normals.end(), {0, 0, 1});
     const RenderOptions o = small(Wireframe::None, 1);
     Renderer renderer(context(), Polygons{9, offsets, verts}, o);
-    EXPECT_EQ(renderer.triangleCount(), 5u);
+    EXPECT_EQ(renderer.triangleCount(), 5u);  // the hexagon fanned into 4, and the triangle
     const Camera camera = cameraFor(positions, o);
     Image image;
     renderer.draw(positions, normals, camera, image);
@@ -500,23 +473,7 @@ int runPsub(const std::string& arguments, const std::string& environment = "") {
     return test::runPsub(arguments, how).status;
 }
 
-class RenderCommand : public ::testing::Test {
-protected:
-    void SetUp() override {
-        try {
-            VulkanContext probe;
-        } catch (const VulkanError& e) {
-            if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-            FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-        }
-        dir_ = fs::temp_directory_path() / ("psub_render_cli_" + std::to_string(::getpid()));
-        fs::create_directories(dir_);
-    }
-    void TearDown() override {
-        if (!dir_.empty()) fs::remove_all(dir_);
-    }
-    fs::path dir_;
-};
+class RenderCommand : public test::VulkanCommandTest {};
 
 TEST_F(RenderCommand, WritesAPng) {
     const std::string out = (dir_ / "cube.png").string();

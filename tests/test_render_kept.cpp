@@ -5,6 +5,7 @@
 #include "psub/stencils.h"
 #include "psub/vulkan_evaluator.h"
 #include "test_support.h"
+#include "vulkan_test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -17,11 +18,6 @@
 namespace psub {
 namespace {
 
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
-
 // Mean absolute difference per channel value, in 1/255 steps.
 double meanDifference(const Image& a, const Image& b) {
     double sum = 0;
@@ -31,15 +27,8 @@ double meanDifference(const Image& a, const Image& b) {
 
 TEST(RenderKept, FramesFromDeviceBuffersEqualFramesFromHostCopies) {
     std::unique_ptr<VulkanContext> context;
-    try {
-        VulkanOptions options;
-        options.validation = Validation::On;
-        options.synchronizationValidation = !test::kSanitized;  // see test_render.cpp: the layer leaks with it
-        context = std::make_unique<VulkanContext>(options);
-    } catch (const VulkanError& e) {
-        if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-        FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-    }
+    test::makeContextOrSkip(context);
+    if (!context) return;
     const test::Loaded loaded = test::load(test::dataPath("spot_control_mesh.obj"));
     RefineOptions refineOptions;
     refineOptions.levels = 2;

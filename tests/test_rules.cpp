@@ -17,6 +17,8 @@ std::vector<double> refineLoaded(const test::Loaded& loaded, int steps,
     return refinePositions(test::refine(loaded, steps, mode), loaded.mesh.positions);
 }
 
+// Tolerance 1e-14: the expected points are short rational sums of coordinates below 10, each
+// rounding by a unit of 2^-52 relative (2.2e-16).
 void expectPoint(const std::vector<double>& positions, Index v, double x, double y, double z) {
     EXPECT_NEAR(positions[3 * v + 0], x, 1e-14) << "vertex " << v;
     EXPECT_NEAR(positions[3 * v + 1], y, 1e-14) << "vertex " << v;
@@ -25,6 +27,7 @@ void expectPoint(const std::vector<double>& positions, Index v, double x, double
 
 TEST(Rules, RegularInteriorWeightsAreQuarterEighthSixteenth) {
     const VertexWeights w = quadVertexWeights(4);
+    // c = (n - 3) / n, d = 2 / n^2, e = 1 / n^2 at n = 4.
     EXPECT_DOUBLE_EQ(w.centre, 1.0 / 4);
     EXPECT_DOUBLE_EQ(w.edge, 1.0 / 8);
     EXPECT_DOUBLE_EQ(w.diagonal, 1.0 / 16);
@@ -32,6 +35,7 @@ TEST(Rules, RegularInteriorWeightsAreQuarterEighthSixteenth) {
 
 TEST(Rules, ValenceTwoHasThePapersNegativeCentreWeight) {
     const VertexWeights w = quadVertexWeights(2);
+    // c = (n - 3) / n, d = 2 / n^2, e = 1 / n^2 at n = 2: -1/2, 2/4, 1/4.
     EXPECT_DOUBLE_EQ(w.centre, -0.5);
     EXPECT_DOUBLE_EQ(w.edge, 0.5);
     EXPECT_DOUBLE_EQ(w.diagonal, 0.25);
@@ -53,6 +57,8 @@ TEST(Rules, WeightsSumToOne) {
 TEST(Rules, CubeCornerAfterOneStepIsOneNinth) {
     const auto cube = load(test::dataPath("cube.obj"));
     const std::vector<double> p = refineLoaded(cube, 1);
+    // 8 V-vertices and 6 F-vertices. At a corner P, valence 3: c = 0, d = 2/9, e = 1/9; its
+    // edge neighbours sum to P, its diagonal ones to -P: P' = 2/9 P - 1/9 P = P / 9.
     ASSERT_EQ(p.size(), 3u * 14);
     for (Index v = 0; v < 8; ++v)
         for (int axis = 0; axis < 3; ++axis)
@@ -75,6 +81,9 @@ TEST(Rules, FaceVertexIsTheFaceCentre) {
 TEST(Rules, CubeCornerAfterTwoStepsIsNineteenEightyFirsts) {
     const auto cube = load(test::dataPath("cube.obj"));
     const std::vector<double> p = refineLoaded(cube, 2);
+    // 14 vertices and one F-vertex for each of the 12 quads of step 1 (one per cube edge). At
+    // the corner, still valence 3: edge neighbours are the 3 face centres (sum P), diagonal ones
+    // the 3 neighbouring corners at Q / 9 (sum P / 9): P'' = 2/9 P + 1/9 P / 9 = 19/81 P.
     ASSERT_EQ(p.size(), 3u * 26);
     for (Index v = 0; v < 8; ++v)
         for (int axis = 0; axis < 3; ++axis)

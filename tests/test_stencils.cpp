@@ -119,6 +119,8 @@ TEST(Stencils, SmoothBoundaryRowsAreTheCubicBSplineCurveRules) {
 TEST(Stencils, PreprocessedQuadMeshAlsoMatches) {
     const Refined r = refineModel(test::dataPath("cube.obj"), 3, Preprocess::Always);
     const std::vector<double> oracle = refinePositions(r.hierarchy, r.loaded.mesh.positions);
+    // Per-level rows in double: rounding only (1e-12). Factorized weights are float (2^-24 =
+    // 6e-8 relative each, summed over a row of weights adding to 1): 1e-6.
     expectClose(evaluateWith<double>(r, TableForm::PerLevel, r.loaded.mesh.positions), oracle, 1e-12, 1);
     expectClose(evaluateWith<double>(r, TableForm::Factorized, r.loaded.mesh.positions), oracle, 1e-6, 1);
 }
@@ -130,6 +132,7 @@ TEST(Stencils, CubeCornerRowIsTheHandComputedStencil) {
     std::vector<double> row(8, 0.0);
     for (std::uint64_t e = t.offsets[6]; e < t.offsets[7]; ++e) row[t.indices[e]] = t.weights[e];
     const double expected[8] = {0, 1.0 / 9, 2.0 / 9, 1.0 / 9, 1.0 / 9, 2.0 / 9, 0, 2.0 / 9};
+    // Tolerance 1e-7: the factorized weights are float; 2/9 rounds by at most 2^-24 * 2/9 = 1.3e-8.
     for (int v = 0; v < 8; ++v) EXPECT_NEAR(row[v], expected[v], 1e-7) << "control " << v;
     // The face point of face 0 (1 4 3 2): a quarter of each corner.
     std::vector<double> facePoint(8, 0.0);
@@ -218,6 +221,7 @@ TEST(Evaluator, EveryWidthFromOneToEightCarriesLinearPrimvars) {
             evaluator.evaluate(control, refined);
             for (std::uint32_t v = 0; v < evaluator.refinedCount(); ++v)
                 for (std::uint32_t i = 0; i < width; ++i)
+                    // 1e-5: float factorized weights (6e-8 relative) times primvars up to about 20.
                     ASSERT_NEAR(refined[std::size_t(v) * width + i], primvar(&positions[3 * v], i), 1e-5)
                         << "vertex " << v << " component " << i;
         }
@@ -243,6 +247,8 @@ TEST(Evaluator, StridedAndOffsetLayoutsReadAndWriteOnlyTheirSlots) {
     evaluateLevelRows(r.perLevel, 0, source.data(), in, levelDestination.data(), out, 0, rows);
     for (std::uint32_t v = 0; v < rows; ++v) {
         EXPECT_EQ(levelDestination[5 * v], -7.0);
+        // Per-level (double weights) against factorized (float weights) on the cube's unit
+        // coordinates: float rounding, 6e-8 per weight, well inside 1e-6.
         for (int i = 0; i < 3; ++i) EXPECT_NEAR(levelDestination[5 * v + 1 + i], expected[3 * v + i], 1e-6);
     }
 }
@@ -400,7 +406,7 @@ TEST(Evaluator, RefineFacadeBuildsWhatTheEvaluatorNeeds) {
     const auto cow = load(test::dataPath("cow.obj"));
     const Refinement refinement = refine(cow.mesh, cow.checked.connectivity, {2, Preprocess::Auto, true, {}});
     EXPECT_TRUE(refinement.preprocessed);
-    EXPECT_EQ(refinement.perLevel.levels.size(), 3u);
+    EXPECT_EQ(refinement.perLevel.levels.size(), 3u);  // the cow has triangles: preprocessing + 2 steps
     EXPECT_EQ(refinement.factorized.rowCount(), refinement.perLevel.refinedCount());
     EXPECT_THROW(refine(cow.mesh, cow.checked.connectivity, {2, Preprocess::Never, false, {}}), InputError);
 }

@@ -8,6 +8,7 @@
 #include "psub/render.h"
 #include "psub/vulkan_evaluator.h"
 #include "test_support.h"
+#include "vulkan_test_support.h"
 #include "texture.h"
 
 #include <gtest/gtest.h>
@@ -35,10 +36,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
 
 std::vector<std::uint8_t> bytesOf(const std::string& s) { return {s.begin(), s.end()}; }
 
@@ -201,38 +198,8 @@ TEST(TextureMips, LevelCountAndBoxFilter) {
 
 using test::kSanitized;
 
-VulkanOptions validated() {
-    VulkanOptions options;
-    options.validation = Validation::On;
-    options.synchronizationValidation = !kSanitized;
-    return options;
-}
-
-class Textured : public ::testing::Test {
-protected:
-    void SetUp() override {
-        try {
-            context_ = std::make_unique<VulkanContext>(validated());
-        } catch (const VulkanError& e) {
-            if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-            FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-        }
-        ASSERT_TRUE(context_->validationEnabled());
-        totalBefore_ = vulkanValidationMessageTotal();
-    }
-    void TearDown() override {
-        if (!context_) return;
-        EXPECT_EQ(context_->validationMessageCount(), 0u)
-            << "validation messages; the last: " << context_->lastValidationMessage();
-        context_.reset();
-        EXPECT_EQ(vulkanValidationMessageTotal(), totalBefore_) << "validation messages on destruction (leaks?)";
-    }
-    VulkanContext& context() { return *context_; }
-
-private:
-    std::unique_ptr<VulkanContext> context_;
-    std::uint64_t totalBefore_ = 0;
-};
+// Every test: its own validated context, no validation message (vulkan_test_support.h).
+class Textured : public test::ValidatedVulkanTest {};
 
 // A flat surface in the plane z = 0 facing +z: vertices, faces, normals.
 struct Flat {
@@ -437,23 +404,7 @@ PsubRun runPsub(const std::string& arguments) {
     return run;
 }
 
-class TextureCommand : public ::testing::Test {
-protected:
-    void SetUp() override {
-        try {
-            VulkanContext probe;
-        } catch (const VulkanError& e) {
-            if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-            FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-        }
-        dir_ = fs::temp_directory_path() / ("psub_texture_cli_" + std::to_string(::getpid()));
-        fs::create_directories(dir_);
-    }
-    void TearDown() override {
-        if (!dir_.empty()) fs::remove_all(dir_);
-    }
-    fs::path dir_;
-};
+class TextureCommand : public test::VulkanCommandTest {};
 
 TEST_F(TextureCommand, UnreadableImagesAreNamedAndWriteNothing) {
     const std::string cube = test::dataPath("cube.obj"), out = (dir_ / "out.png").string();

@@ -109,6 +109,8 @@ TEST(Tiled, EqualsTheRulesOnEveryModel) {
                     const TiledTable table = buildTiledTable(h, buildPerLevelTable(h, rules));
                     tiles[int(boundary)][int(rules)][steps % 2] += table.tileCount();
                     const std::vector<double> oracle = refinePositions(h, loaded.mesh.positions, rules);
+                    // Tolerances relative to the model's size: float, 2^-24 = 6e-8 per rounding over
+                    // a few steps' weighted sums (1e-6); double, 1.1e-16 per rounding (1e-12).
                     const double scale = diagonal(loaded.mesh.positions);
                     EXPECT_LE(maxDifference(tiledCanonical<float>(table, loaded.mesh.positions), oracle), 1e-6 * scale);
                     EXPECT_LE(maxDifference(tiledCanonical<double>(table, loaded.mesh.positions), oracle), 1e-12 * scale);

@@ -38,10 +38,7 @@ VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT 
     return VK_FALSE;
 }
 
-bool noVulkanAllowed() {
-    const char* allow = std::getenv("PSUB_ALLOW_NO_VULKAN");
-    return allow && std::string(allow) == "1";
-}
+using test::noVulkanAllowed;
 
 // A host-visible buffer the test owns.
 struct OwnBuffer {
@@ -60,10 +57,20 @@ protected:
     VkQueue queue = VK_NULL_HANDLE;
     std::uint32_t family = 0;
     VkCommandPool pool = VK_NULL_HANDLE;
+    VkFence fence = VK_NULL_HANDLE;
     std::deque<OwnBuffer> buffers;  // references to its elements stay valid
 
     void SetUp() override {
         messages = 0;
+        createInstance();
+        if (HasFatalFailure() || IsSkipped()) return;
+        pickDevice();
+        if (HasFatalFailure() || IsSkipped()) return;
+        createDevice();
+    }
+
+    // An instance with the validation layer and a messenger that counts its messages.
+    void createInstance() {
         VkApplicationInfo app{};
         app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
         app.apiVersion = VK_API_VERSION_1_1;
@@ -94,8 +101,10 @@ protected:
             vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
         ASSERT_NE(create, nullptr);
         CHECK_VK(create(instance, &messengerInfo, nullptr, &messenger));
+    }
 
-        // The first device with a compute queue (lavapipe in CI).
+    // The first device with a compute queue (lavapipe in CI).
+    void pickDevice() {
         std::uint32_t count = 0;
         vkEnumeratePhysicalDevices(instance, &count, nullptr);
         std::vector<VkPhysicalDevice> devices(count);
@@ -113,6 +122,10 @@ protected:
             if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (PSUB_ALLOW_NO_VULKAN=1)";
             FAIL() << "no Vulkan device with a compute queue (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
         }
+    }
+
+    // The device with one queue of that family, a command pool and a fence for submitAndWait.
+    void createDevice() {
         const float priority = 1.0f;
         VkDeviceQueueCreateInfo queueInfo{};
         queueInfo.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
@@ -129,6 +142,16 @@ protected:
         poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
         poolInfo.queueFamilyIndex = family;
         CHECK_VK(vkCreateCommandPool(device, &poolInfo, nullptr, &pool));
+        VkFenceCreateInfo fenceInfo{};
+        fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+        CHECK_VK(vkCreateFence(device, &fenceInfo, nullptr, &fence));
+    }
+
+    // Submits `submit` to the queue and waits for it (the fence is reset for the next one).
+    void submitAndWait(const VkSubmitInfo& submit) {
+        CHECK_VK(vkQueueSubmit(queue, 1, &submit, fence));
+        CHECK_VK(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX));
+        CHECK_VK(vkResetFences(device, 1, &fence));
     }
 
     void TearDown() override {
@@ -137,6 +160,7 @@ protected:
             vkDestroyBuffer(device, b.buffer, nullptr);
             vkFreeMemory(device, b.memory, nullptr);
         }
+        if (fence) vkDestroyFence(device, fence, nullptr);
         if (pool) vkDestroyCommandPool(device, pool, nullptr);
         if (device) vkDestroyDevice(device, nullptr);
         if (messenger) {
@@ -247,17 +271,11 @@ TEST_F(OwnDevice, EvaluatorRecordsIntoTheCallersCommandBufferAndBuffers) {
     vkCmdPipelineBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0, nullptr,
                          0, nullptr);
     CHECK_VK(vkEndCommandBuffer(command));
-    VkFenceCreateInfo fenceInfo{};
-    fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    VkFence fence = VK_NULL_HANDLE;
-    CHECK_VK(vkCreateFence(device, &fenceInfo, nullptr, &fence));
     VkSubmitInfo submit{};
     submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
     submit.commandBufferCount = 1;
     submit.pCommandBuffers = &command;
-    CHECK_VK(vkQueueSubmit(queue, 1, &submit, fence));
-    CHECK_VK(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX));
-    vkDestroyFence(device, fence, nullptr);
+    submitAndWait(submit);
 
     CpuEvaluator<float> cpu(m.r.perLevel, m.r.factorized, m.r.surface, TableForm::PerLevel);
     std::vector<float> positions(3 * std::size_t(cpu.refinedCount())), cpuNormals(positions.size());
@@ -278,10 +296,6 @@ TEST_F(OwnDevice, EvaluatorSubmitsSignallingTheCallersSemaphore) {
     semaphoreInfo.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO;
     VkSemaphore done = VK_NULL_HANDLE;
     CHECK_VK(vkCreateSemaphore(device, &semaphoreInfo, nullptr, &done));
-    VkFenceCreateInfo fenceInfo{};
-    fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    VkFence fence = VK_NULL_HANDLE;
-    CHECK_VK(vkCreateFence(device, &fenceInfo, nullptr, &fence));
     CpuEvaluator<float> cpu(m.r.perLevel, m.r.factorized, m.r.surface, TableForm::Factorized);
     std::vector<float> positions(3 * std::size_t(cpu.refinedCount()));
     for (float t : {0.0f, 0.2f}) {  // two frames: the second overwrites the first
@@ -295,15 +309,12 @@ TEST_F(OwnDevice, EvaluatorSubmitsSignallingTheCallersSemaphore) {
         wait.waitSemaphoreCount = 1;
         wait.pWaitSemaphores = &done;
         wait.pWaitDstStageMask = &stage;
-        CHECK_VK(vkQueueSubmit(queue, 1, &wait, fence));
-        CHECK_VK(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX));
-        CHECK_VK(vkResetFences(device, 1, &fence));
+        submitAndWait(wait);
         cpu.evaluate(points, positions);
         EXPECT_LE(largestDifference(positions, refined.mapped, 4), 1e-5f) << "pose " << t;
     }
     vkDeviceWaitIdle(device);
     vkDestroySemaphore(device, done, nullptr);
-    vkDestroyFence(device, fence, nullptr);
 }
 
 TEST_F(OwnDevice, AdoptedContextRefusesMissingHandles) {

@@ -3,6 +3,7 @@
 // that a hang fails the test (and ends the process) instead of stalling the suite.
 #include "psub/vulkan_evaluator.h"
 #include "test_support.h"
+#include "vulkan_test_support.h"
 
 // Internal headers: the context's handles and the submit helper under test.
 #include "device.h"
@@ -19,8 +20,6 @@
 
 namespace psub {
 namespace {
-
-using test::noVulkanAllowed;
 
 // An empty, recorded command buffer and a fence created already signaled: submitting with a
 // signaled fence breaks VUID-vkQueueSubmit-fence-00063, which the layer reports from inside
@@ -62,12 +61,8 @@ TEST(VulkanSubmit, AValidationMessageDuringASubmitIsReportedNotADeadlock) {
     VulkanOptions options;
     options.validation = Validation::On;
     std::unique_ptr<VulkanContext> context;
-    try {
-        context = std::make_unique<VulkanContext>(options);
-    } catch (const VulkanError& e) {
-        if (noVulkanAllowed()) GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << e.what();
-        FAIL() << "no Vulkan device: " << e.what() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-    }
+    test::makeContextOrSkip(context, options);
+    if (!context) return;
     ASSERT_TRUE(context->validationEnabled());
     SignaledFenceSubmit bad(contextInternals(*context));
     const std::uint64_t before = context->validationMessageCount();
