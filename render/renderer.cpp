@@ -7,7 +7,10 @@
 #include "psub/vulkan_interop.h"
 
 #include "device.h"
+#include "images.h"
 #include "resources.h"
+#include "shaders.h"
+#include "submit.h"
 #include "texture.h"
 
 #include "render_lines_frag.spv.h"
@@ -35,7 +38,6 @@ namespace {
 
 using namespace vulkan;
 using render_detail::DeviceTexture;
-using render_detail::deviceMemoryType;
 using Clock = std::chrono::steady_clock;
 
 // Mirrors shaders/render_frame.glsl (std140).
@@ -56,12 +58,6 @@ enum class PipelineKind { Mesh, Textured, Lines };
 
 // Lines are pulled this fraction of their distance towards the eye (render_lines.vert).
 constexpr float kLinePull = 0.0015f;
-
-struct Image2D {
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    VkImageView view = VK_NULL_HANDLE;
-};
 
 double msBetween(Clock::time_point a, Clock::time_point b) {
     return std::chrono::duration<double, std::milli>(b - a).count();
@@ -134,56 +130,14 @@ void toFloats(Rgba c, float out[4]) {
     out[0] = float(c.r) / 255.0f, out[1] = float(c.g) / 255.0f, out[2] = float(c.b) / 255.0f, out[3] = float(c.a) / 255.0f;
 }
 
-void destroyImage(const VulkanContext::Impl& c, Image2D& image) {
-    if (image.view) vkDestroyImageView(c.device, image.view, nullptr);
-    if (image.image) vkDestroyImage(c.device, image.image, nullptr);
-    if (image.memory) vkFreeMemory(c.device, image.memory, nullptr);
-    image = Image2D{};
-}
-
-Image2D createImage(const VulkanContext::Impl& c, VkFormat format, VkImageUsageFlags usage,
-                    VkSampleCountFlagBits samples, VkImageAspectFlags aspect, std::uint32_t width, std::uint32_t height) {
-    Image2D made;
-    VkImageCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-    info.imageType = VK_IMAGE_TYPE_2D;
-    info.format = format;
-    info.extent = {width, height, 1};
-    info.mipLevels = 1;
-    info.arrayLayers = 1;
-    info.samples = samples;
-    info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    info.usage = usage;
-    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    VK_CHECK(vkCreateImage(c.device, &info, nullptr, &made.image));
-    try {
-        VkMemoryRequirements requirements;
-        vkGetImageMemoryRequirements(c.device, made.image, &requirements);
-        VkMemoryAllocateInfo allocate{};
-        allocate.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-        allocate.allocationSize = requirements.size;
-        allocate.memoryTypeIndex = deviceMemoryType(c, requirements.memoryTypeBits);
-        const VkResult allocated = vkAllocateMemory(c.device, &allocate, nullptr, &made.memory);
-        if (allocated == VK_ERROR_OUT_OF_DEVICE_MEMORY || allocated == VK_ERROR_OUT_OF_HOST_MEMORY)
-            throw VulkanError("a " + std::to_string(width) + "x" + std::to_string(height) + " image with " +
-                              std::to_string(int(samples)) + " sample(s) per pixel needs " +
-                              std::to_string(requirements.size) + " bytes of device memory, more than the device "
-                              "could allocate (" + vulkan::resultName(allocated) + "); use a smaller --size or --msaa 1");
-        VK_CHECK(allocated);
-        VK_CHECK(vkBindImageMemory(c.device, made.image, made.memory, 0));
-        VkImageViewCreateInfo viewInfo{};
-        viewInfo.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
-        viewInfo.image = made.image;
-        viewInfo.viewType = VK_IMAGE_VIEW_TYPE_2D;
-        viewInfo.format = format;
-        viewInfo.subresourceRange = {aspect, 0, 1, 0, 1};
-        VK_CHECK(vkCreateImageView(c.device, &viewInfo, nullptr, &made.view));
-    } catch (...) {
-        destroyImage(c, made);
-        throw;
-    }
-    return made;
+// A render target of one mip level; its out-of-memory message names the options that shrink it.
+Image2D createAttachment(const VulkanContext::Impl& c, VkFormat format, VkImageUsageFlags usage,
+                         VkSampleCountFlagBits samples, VkImageAspectFlags aspect, std::uint32_t width, std::uint32_t height) {
+    ImageSpec spec;
+    spec.format = format, spec.usage = usage, spec.samples = samples, spec.aspect = aspect;
+    spec.width = width, spec.height = height;
+    spec.outOfMemoryHint = "use a smaller --size or --msaa 1";
+    return vulkan::createImage(c, spec);
 }
 
 VkFormat chooseDepthFormat(VkPhysicalDevice physical) {
@@ -209,16 +163,6 @@ bool queueHasGraphics(const VulkanContext::Impl& c) {
     std::vector<VkQueueFamilyProperties> families(count);
     vkGetPhysicalDeviceQueueFamilyProperties(c.physical, &count, families.data());
     return c.queueFamily < count && (families[c.queueFamily].queueFlags & VK_QUEUE_GRAPHICS_BIT);
-}
-
-VkShaderModule createModule(VkDevice device, std::span<const std::uint32_t> words) {
-    VkShaderModuleCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-    info.codeSize = words.size_bytes();
-    info.pCode = words.data();
-    VkShaderModule module = VK_NULL_HANDLE;
-    VK_CHECK(vkCreateShaderModule(device, &info, nullptr, &module));
-    return module;
 }
 
 }  // namespace
@@ -261,6 +205,11 @@ struct Renderer::Impl {
                               PipelineKind kind);
     void recordCommands();
     void writeUniforms(const Camera& camera);
+    // Everything after the options: buffers, texture, images, descriptors, pipelines, commands.
+    void build(Polygons surface, Polygons control, const SurfaceTexture& surfaceTexture);
+    void createPipelines();
+    // The rest of a frame whose vertex uploads began at `start`: uniforms, render, read back.
+    void renderAndReadBack(const Camera& camera, Clock::time_point start, Image& out);
 };
 
 Renderer::Impl::~Impl() {
@@ -307,8 +256,10 @@ void Renderer::Impl::createBuffers(Polygons surface, Polygons control, const Sur
     lineIndices = std::uint32_t(edges.size());
     const VkBufferUsageFlags vertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;
     const VkBufferUsageFlags pulled = textured ? VK_BUFFER_USAGE_STORAGE_BUFFER_BIT : 0;  // render_textured.vert
-    positions = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
-    normals = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
+    if (!drawsKept) {  // else the evaluator's buffers are drawn
+        positions = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
+        normals = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
+    }
     if (options.wireframe == Wireframe::Control)
         controlPositions = createBuffer(c, 12ull * controlVertexCount, vertexUsage, Memory::Device, true);
     triangles = createBuffer(c, 4ull * fan.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
@@ -326,15 +277,15 @@ void Renderer::Impl::createBuffers(Polygons surface, Polygons control, const Sur
 void Renderer::Impl::createImages() {
     const VulkanContext::Impl& c = context;
     const VkFormat depthFormat = chooseDepthFormat(c.physical);
-    colour = createImage(c, VK_FORMAT_R8G8B8A8_UNORM,
-                         VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_SAMPLE_COUNT_1_BIT,
-                         VK_IMAGE_ASPECT_COLOR_BIT, options.width, options.height);
+    colour = createAttachment(c, VK_FORMAT_R8G8B8A8_UNORM,
+                              VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                              VK_SAMPLE_COUNT_1_BIT, VK_IMAGE_ASPECT_COLOR_BIT, options.width, options.height);
     if (samples != VK_SAMPLE_COUNT_1_BIT)
-        multisampled = createImage(c, VK_FORMAT_R8G8B8A8_UNORM,
-                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSIENT_ATTACHMENT_BIT,
-                                   samples, VK_IMAGE_ASPECT_COLOR_BIT, options.width, options.height);
-    depth = createImage(c, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, samples, VK_IMAGE_ASPECT_DEPTH_BIT,
-                        options.width, options.height);
+        multisampled = createAttachment(c, VK_FORMAT_R8G8B8A8_UNORM,
+                                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSIENT_ATTACHMENT_BIT,
+                                        samples, VK_IMAGE_ASPECT_COLOR_BIT, options.width, options.height);
+    depth = createAttachment(c, depthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, samples,
+                             VK_IMAGE_ASPECT_DEPTH_BIT, options.width, options.height);
     createRenderPass();
     const bool msaa = samples != VK_SAMPLE_COUNT_1_BIT;
     const VkImageView views[3] = {msaa ? multisampled.view : colour.view, depth.view, colour.view};
@@ -436,7 +387,7 @@ void Renderer::Impl::createDescriptors() {
     const VkDescriptorBufferInfo bufferInfos[3] = {{uniforms.buffer, 0, sizeof(FrameUniforms)},
                                                    {positions.buffer, 0, VK_WHOLE_SIZE},
                                                    {normals.buffer, 0, VK_WHOLE_SIZE}};
-    const VkDescriptorImageInfo imageInfo{texture.sampler, texture.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    const VkDescriptorImageInfo imageInfo{texture.sampler, texture.image.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     VkWriteDescriptorSet writes[4]{};
     for (std::uint32_t i = 0; i < 4; ++i) {
         writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -462,10 +413,10 @@ VkPipeline Renderer::Impl::createPipeline(std::span<const std::uint32_t> vertex,
                                           PipelineKind kind) {
     const bool mesh = kind != PipelineKind::Lines;
     const VkDevice d = context.device;
-    VkShaderModule modules[2] = {createModule(d, vertex), VK_NULL_HANDLE};
+    VkShaderModule modules[2] = {createShaderModule(d, vertex), VK_NULL_HANDLE};
     VkPipeline pipeline = VK_NULL_HANDLE;
     try {
-        modules[1] = createModule(d, fragment);
+        modules[1] = createShaderModule(d, fragment);
         VkPipelineShaderStageCreateInfo stages[2]{};
         for (int i = 0; i < 2; ++i) {
             stages[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
@@ -630,79 +581,80 @@ void Renderer::Impl::writeUniforms(const Camera& camera) {
 Renderer::Renderer(VulkanContext& context, Polygons surface, const RenderOptions& options, Polygons control,
                    const SurfaceTexture& texture)
     : impl_(std::make_unique<Impl>(contextInternals(context), options)) {
+    impl_->build(surface, control, texture);
+}
+
+// The renderer of an evaluator's kept results: no vertex buffers of its own; the pipelines
+// read the evaluator's buffers with their stride.
+Renderer::Renderer(VulkanContext& context, const VulkanEvaluator& source, const RenderOptions& options, Polygons control)
+    : impl_(std::make_unique<Impl>(contextInternals(context), options)) {
+    if (source.deviceStride() != 4 || !source.keptNormals().buffer)
+        throw std::invalid_argument("Renderer: the evaluator must have width 3 and normals to be drawn from");
     Impl& r = *impl_;
-    const VulkanContext::Impl& c = r.context;
+    r.drawsKept = true;
+    r.vertexStride = 4 * source.deviceStride();
+    r.drawnPositions = source.keptPositions().buffer;
+    r.drawnNormals = source.keptNormals().buffer;
+    r.build(polygonsOf(source.surface()), control, {});
+}
+
+Renderer::~Renderer() = default;
+
+void Renderer::Impl::build(Polygons surface, Polygons control, const SurfaceTexture& surfaceTexture) {
+    const VulkanContext::Impl& c = context;
     const std::uint32_t maxSize = c.properties.limits.maxImageDimension2D;
     if (options.width == 0 || options.height == 0 || options.width > maxSize || options.height > maxSize)
         throw std::invalid_argument("Renderer: image size " + std::to_string(options.width) + "x" +
                                     std::to_string(options.height) + " is outside 1.." + std::to_string(maxSize));
     checkPolygons(surface, "surface");
     checkPolygons(control, "control");
-    if (!texture.empty()) checkTexture(texture, surface.vertexCount);
+    if (!surfaceTexture.empty()) checkTexture(surfaceTexture, surface.vertexCount);
     if (options.wireframe == Wireframe::Control && control.offsets.size() < 2)
         throw std::invalid_argument("Renderer: Wireframe::Control needs the control faces");
     if (!queueHasGraphics(c))
         throw VulkanError(std::string("the Vulkan context's queue (family ") + std::to_string(c.queueFamily) + " of " +
                           c.properties.deviceName + ") cannot do graphics, which rendering needs");
-    r.vertexCount = surface.vertexCount;
-    r.controlVertexCount = control.vertexCount;
-    r.samples = chooseSamples(c.properties.limits, std::max(1u, options.samples));
-    r.options.samples = std::uint32_t(r.samples);
-    r.textured = !texture.empty();
-    r.baseColourFactor = texture.factor;
-    r.createBuffers(surface, control, texture);
-    if (!r.drawsKept) r.drawnPositions = r.positions.buffer, r.drawnNormals = r.normals.buffer;
-    if (r.textured) r.texture = render_detail::uploadTexture(r.context, *texture.image);
-    r.createImages();
-    r.createDescriptors();
-    r.meshPipeline = r.textured
-                         ? r.createPipeline(psub_spirv_render_textured_vert, psub_spirv_render_textured_frag,
-                                            PipelineKind::Textured)
-                         : r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, PipelineKind::Mesh);
-    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, PipelineKind::Lines);
-    r.recordCommands();
+    vertexCount = surface.vertexCount;
+    controlVertexCount = control.vertexCount;
+    samples = chooseSamples(c.properties.limits, std::max(1u, options.samples));
+    options.samples = std::uint32_t(samples);
+    textured = !surfaceTexture.empty();
+    baseColourFactor = surfaceTexture.factor;
+    createBuffers(surface, control, surfaceTexture);
+    if (!drawsKept) drawnPositions = positions.buffer, drawnNormals = normals.buffer;
+    if (textured) texture = render_detail::uploadTexture(context, *surfaceTexture.image);
+    createImages();
+    createDescriptors();
+    createPipelines();
+    recordCommands();
 }
 
-Renderer::~Renderer() = default;
+void Renderer::Impl::createPipelines() {
+    meshPipeline = textured ? createPipeline(psub_spirv_render_textured_vert, psub_spirv_render_textured_frag,
+                                             PipelineKind::Textured)
+                            : createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, PipelineKind::Mesh);
+    linePipeline = createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, PipelineKind::Lines);
+}
 
-// The renderer of an evaluator's kept results: built as for host vertices (its own vertex
-// buffers then unused), then its pipelines and commands made again for the evaluator's buffers
-// and their stride.
-Renderer::Renderer(VulkanContext& context, const VulkanEvaluator& source, const RenderOptions& options, Polygons control)
-    : Renderer(context, polygonsOf(source.surface()), options, control) {
-    Impl& r = *impl_;
-    if (source.deviceStride() != 4 || !source.keptNormals().buffer)
-        throw std::invalid_argument("Renderer: the evaluator must have width 3 and normals to be drawn from");
-    const VkDevice d = r.context.device;
-    vkDestroyFence(d, r.fence, nullptr);
-    vkDestroyCommandPool(d, r.commandPool, nullptr);  // frees its command buffers
-    for (VkPipeline* p : {&r.meshPipeline, &r.linePipeline}) vkDestroyPipeline(d, std::exchange(*p, VK_NULL_HANDLE), nullptr);
-    r.fence = VK_NULL_HANDLE, r.commandPool = VK_NULL_HANDLE;
-    r.drawsKept = true;
-    r.vertexStride = 4 * source.deviceStride();
-    r.drawnPositions = source.keptPositions().buffer;
-    r.drawnNormals = source.keptNormals().buffer;
-    r.meshPipeline = r.createPipeline(psub_spirv_render_mesh_vert, psub_spirv_render_mesh_frag, PipelineKind::Mesh);
-    r.linePipeline = r.createPipeline(psub_spirv_render_lines_vert, psub_spirv_render_lines_frag, PipelineKind::Lines);
-    r.recordCommands();
+void Renderer::Impl::renderAndReadBack(const Camera& camera, Clock::time_point start, Image& out) {
+    writeUniforms(camera);
+    const auto uploaded = Clock::now();
+    submitAndWait(context, renderCommands, fence);
+    const auto rendered = Clock::now();
+    submitAndWait(context, readbackCommands, fence);
+    const std::size_t bytes = 4 * std::size_t(options.width) * options.height;
+    if (out.width != options.width || out.height != options.height || out.rgba.size() != bytes) {
+        out.width = options.width, out.height = options.height;
+        out.rgba.resize(bytes);
+    }
+    std::memcpy(out.rgba.data(), readback.mapped, bytes);
+    times = {msBetween(start, uploaded), msBetween(uploaded, rendered), msBetween(rendered, Clock::now())};
 }
 
 void Renderer::drawKept(const Camera& camera, Image& out) {
     Impl& r = *impl_;
     if (!r.drawsKept) throw std::logic_error("Renderer::drawKept: this renderer draws host vertices (use draw)");
-    const auto start = Clock::now();
-    r.writeUniforms(camera);
-    const auto uploaded = Clock::now();
-    vulkan::submitAndWait(r.context, r.renderCommands, r.fence);
-    const auto rendered = Clock::now();
-    vulkan::submitAndWait(r.context, r.readbackCommands, r.fence);
-    const std::size_t bytes = 4 * std::size_t(r.options.width) * r.options.height;
-    if (out.width != r.options.width || out.height != r.options.height || out.rgba.size() != bytes) {
-        out.width = r.options.width, out.height = r.options.height;
-        out.rgba.resize(bytes);
-    }
-    std::memcpy(out.rgba.data(), r.readback.mapped, bytes);
-    r.times = {msBetween(start, uploaded), msBetween(uploaded, rendered), msBetween(rendered, Clock::now())};
+    r.renderAndReadBack(camera, Clock::now(), out);
 }
 
 const RenderOptions& Renderer::options() const { return impl_->options; }
@@ -719,24 +671,14 @@ void Renderer::setControlPositions(std::span<const float> xyz) {
 
 void Renderer::draw(std::span<const float> positions, std::span<const float> normals, const Camera& camera, Image& out) {
     Impl& r = *impl_;
+    if (r.drawsKept)
+        throw std::logic_error("Renderer::draw: this renderer draws an evaluator's buffers (use drawKept)");
     const std::size_t floats = 3 * std::size_t(r.vertexCount);
     assert(positions.size() >= floats && normals.size() >= floats);
     const auto start = Clock::now();
     std::memcpy(r.positions.mapped, positions.data(), std::min(floats, positions.size()) * 4);
     std::memcpy(r.normals.mapped, normals.data(), std::min(floats, normals.size()) * 4);
-    r.writeUniforms(camera);
-    const auto uploaded = Clock::now();
-    vulkan::submitAndWait(r.context, r.renderCommands, r.fence);
-    const auto rendered = Clock::now();
-    vulkan::submitAndWait(r.context, r.readbackCommands, r.fence);
-    const std::size_t bytes = 4 * std::size_t(r.options.width) * r.options.height;
-    if (out.width != r.options.width || out.height != r.options.height || out.rgba.size() != bytes) {
-        out.width = r.options.width, out.height = r.options.height;
-        out.rgba.resize(bytes);
-    }
-    std::memcpy(out.rgba.data(), r.readback.mapped, bytes);
-    const auto done = Clock::now();
-    r.times = {msBetween(start, uploaded), msBetween(uploaded, rendered), msBetween(rendered, done)};
+    r.renderAndReadBack(camera, start, out);
 }
 
 }  // namespace psub

@@ -1,8 +1,8 @@
 // Internal to psub::render: a base-colour texture on the device (image with its full mip
-// chain, view, sampler) uploaded once, and the memory-type choice images share.
+// chain, view, sampler) uploaded once through the Vulkan core's staged uploads.
 #pragma once
 
-#include "device.h"
+#include "images.h"
 
 #include "psub/image.h"
 
@@ -10,14 +10,8 @@
 
 namespace psub::render_detail {
 
-// A device-local memory type among `bits` (any allowed one when none is device-local);
-// VulkanError when none is allowed.
-std::uint32_t deviceMemoryType(const VulkanContext::Impl& context, std::uint32_t bits);
-
 struct DeviceTexture {
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    VkImageView view = VK_NULL_HANDLE;
+    vulkan::Image2D image;  // every mip level in the view
     VkSampler sampler = VK_NULL_HANDLE;
     std::uint32_t mipLevels = 0;
     bool mipsBlitted = false;  // true: vkCmdBlitImage made the mips; false: the CPU did

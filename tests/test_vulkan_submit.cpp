@@ -8,6 +8,7 @@
 // Internal headers: the context's handles and the submit helper under test.
 #include "device.h"
 #include "resources.h"
+#include "submit.h"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,10 @@
 // Compute pipelines from the SPIR-V embedded at build time (shaders/*.comp), checked against
-// shaders/config.h, specialised and cached.
+// shaders/config.h, specialised and cached; made once per context (pipelinesFor).
 #include "pipelines.h"
 
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include "face_normals.spv.h"
@@ -28,14 +30,6 @@ Code code(Kernel kernel) {
     return {"?", {}};
 }
 
-// SPIR-V opcodes and enumerants used by reflectSpirv.
-enum : std::uint32_t {
-    OpExecutionMode = 16, OpTypeInt = 21, OpTypeFloat = 22, OpTypeVector = 23, OpTypeStruct = 30,
-    OpTypePointer = 32, OpVariable = 59, OpDecorate = 71, OpMemberDecorate = 72,
-    ExecutionModeLocalSize = 17, DecorationBinding = 33, DecorationDescriptorSet = 34,
-    DecorationOffset = 35, StorageClassPushConstant = 9,
-};
-
 // Throws VulkanError when a module disagrees with shaders/config.h.
 void checkContract(const char* name, const ShaderInfo& info) {
     auto fail = [&](const std::string& what) {
@@ -54,52 +48,6 @@ void checkContract(const char* name, const ShaderInfo& info) {
 }
 
 }  // namespace
-
-ShaderInfo reflectSpirv(std::span<const std::uint32_t> code) {
-    ShaderInfo info;
-    if (code.size() < 5 || code[0] != 0x07230203u) throw VulkanError("not a SPIR-V module");
-    std::map<std::uint32_t, std::uint32_t> scalarBytes;                 // type id -> bytes
-    std::map<std::uint32_t, std::vector<std::uint32_t>> structMembers;  // struct id -> member type ids
-    std::map<std::uint32_t, std::map<std::uint32_t, std::uint32_t>> memberOffsets;
-    std::map<std::uint32_t, std::uint32_t> pointee;                     // pointer id -> type id
-    std::uint32_t pushPointer = 0;
-    for (std::size_t at = 5; at < code.size();) {
-        const std::uint32_t op = code[at] & 0xffffu, count = code[at] >> 16;
-        if (count == 0 || at + count > code.size()) throw VulkanError("truncated SPIR-V module");
-        const std::uint32_t* w = &code[at];
-        switch (op) {
-        case OpExecutionMode:
-            if (count >= 6 && w[2] == ExecutionModeLocalSize) info.localSize[0] = w[3], info.localSize[1] = w[4], info.localSize[2] = w[5];
-            break;
-        case OpDecorate:
-            if (count >= 4 && w[2] == DecorationBinding) info.bindings.push_back(w[3]);
-            if (count >= 4 && w[2] == DecorationDescriptorSet) info.sets.push_back(w[3]);
-            break;
-        case OpMemberDecorate:
-            if (count >= 5 && w[3] == DecorationOffset) memberOffsets[w[1]][w[2]] = w[4];
-            break;
-        case OpTypeInt:
-        case OpTypeFloat: scalarBytes[w[1]] = w[2] / 8; break;
-        case OpTypeVector: scalarBytes[w[1]] = scalarBytes[w[2]] * w[3]; break;
-        case OpTypeStruct: structMembers[w[1]].assign(w + 2, w + count); break;
-        case OpTypePointer: pointee[w[1]] = w[3]; break;
-        case OpVariable:
-            if (count >= 4 && w[3] == StorageClassPushConstant) pushPointer = w[1];
-            break;
-        default: break;
-        }
-        at += count;
-    }
-    if (pushPointer) {
-        const std::uint32_t block = pointee[pushPointer];
-        const std::vector<std::uint32_t>& members = structMembers[block];
-        for (std::uint32_t m = 0; m < members.size(); ++m) {
-            const std::uint32_t end = memberOffsets[block][m] + scalarBytes[members[m]];
-            if (end > info.pushConstantBytes) info.pushConstantBytes = end;
-        }
-    }
-    return info;
-}
 
 Pipelines::Pipelines(VkDevice device) : device_(device) {
     try {
@@ -128,11 +76,7 @@ Pipelines::Pipelines(VkDevice device) : device_(device) {
         for (int k = 0; k < kKernelCount; ++k) {
             const Code c = code(Kernel(k));
             checkContract(c.name, reflectSpirv(c.words));
-            VkShaderModuleCreateInfo moduleInfo{};
-            moduleInfo.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-            moduleInfo.codeSize = c.words.size_bytes();
-            moduleInfo.pCode = c.words.data();
-            VK_CHECK(vkCreateShaderModule(device_, &moduleInfo, nullptr, &modules_[k]));
+            modules_[k] = createShaderModule(device_, c.words);
         }
     } catch (...) {
         release();
@@ -186,6 +130,11 @@ VkPipeline Pipelines::get(Kernel kernel, const Specialization& s) {
     VK_CHECK(vkCreateComputePipelines(device_, cache_, 1, &info, nullptr, &pipeline));
     pipelines_.emplace(key, pipeline);
     return pipeline;
+}
+
+Pipelines& pipelinesFor(VulkanContext::Impl& context) {
+    std::call_once(context.pipelinesOnce, [&] { context.pipelines = std::make_shared<Pipelines>(context.device); });
+    return *context.pipelines;
 }
 
 }  // namespace psub::vulkan

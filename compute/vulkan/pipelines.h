@@ -1,10 +1,11 @@
-// Internal: the compute pipelines (niagara's shaders.cpp, kept small). SPIR-V embedded at
+// The compute evaluator's pipelines (niagara's shaders.cpp, kept small). SPIR-V embedded at
 // build time; each module is checked against shaders/config.h when it is created (local size,
 // bindings, push-constant size); pipelines are specialised per width, strides and windowing
 // and cached for the context's lifetime.
 #pragma once
 
-#include "check.h"
+#include "device.h"
+#include "shaders.h"
 
 #include <cstdint>
 #include <map>
@@ -41,15 +42,6 @@ struct Specialization {
     }
 };
 
-// What a SPIR-V module declares, read from its instructions.
-struct ShaderInfo {
-    uint localSize[3] = {0, 0, 0};
-    std::vector<uint> bindings;   // of descriptor set 0
-    std::vector<uint> sets;       // every descriptor set used
-    uint pushConstantBytes = 0;   // 0 when there is no push-constant block
-};
-ShaderInfo reflectSpirv(std::span<const std::uint32_t> code);
-
 class Pipelines {
 public:
     explicit Pipelines(VkDevice device);
@@ -73,5 +65,8 @@ private:
     std::mutex lock_;
     std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint>, VkPipeline> pipelines_;
 };
+
+// The context's compute pipelines, made on first use (thread-safe) and kept with the context.
+Pipelines& pipelinesFor(VulkanContext::Impl& context);
 
 }  // namespace psub::vulkan

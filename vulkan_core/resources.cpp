@@ -1,16 +1,15 @@
-// Buffers (one allocation each: an evaluator holds a dozen) and barrier helpers.
+// Buffers (one allocation each: an evaluator holds a dozen), memory-type choice, barriers.
 #include "resources.h"
-
-#include <mutex>
-
-#include "device.h"
 
 #include <string>
 
 namespace psub::vulkan {
 namespace {
 
-// The first memory type allowed by `bits` with all `required` flags, preferring `preferred`.
+std::string mib(VkDeviceSize bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB"; }
+
+}  // namespace
+
 std::uint32_t findMemoryType(const VkPhysicalDeviceMemoryProperties& memory, std::uint32_t bits,
                              VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred) {
     std::uint32_t fallback = ~0u;
@@ -24,9 +23,13 @@ std::uint32_t findMemoryType(const VkPhysicalDeviceMemoryProperties& memory, std
     return fallback;
 }
 
-std::string mib(VkDeviceSize bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB"; }
-
-}  // namespace
+std::uint32_t deviceMemoryType(const VulkanContext::Impl& context, std::uint32_t bits, const char* what) {
+    const std::uint32_t type =
+        findMemoryType(context.memory, bits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (type == ~0u)
+        throw VulkanError(std::string("no memory type for ") + what + " on " + context.properties.deviceName);
+    return type;
+}
 
 bool hasHostVisibleDeviceMemory(const VulkanContext::Impl& context) {
     const VkMemoryPropertyFlags wanted = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
@@ -114,19 +117,6 @@ void memoryBarrier(VkCommandBuffer command, VkPipelineStageFlags sourceStage, Vk
     barrier.srcAccessMask = sourceAccess;
     barrier.dstAccessMask = destinationAccess;
     vkCmdPipelineBarrier(command, sourceStage, destinationStage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
-}
-
-void submitAndWait(VulkanContext::Impl& context, VkCommandBuffer command, VkFence fence) {
-    VkSubmitInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-    info.commandBufferCount = 1;
-    info.pCommandBuffers = &command;
-    {
-        std::lock_guard guard(context.submitLock);
-        VK_CHECK(vkQueueSubmit(context.queue, 1, &info, fence));
-    }
-    VK_CHECK(vkWaitForFences(context.device, 1, &fence, VK_TRUE, UINT64_MAX));
-    VK_CHECK(vkResetFences(context.device, 1, &fence));
 }
 
 }  // namespace psub::vulkan

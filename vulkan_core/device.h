@@ -1,10 +1,9 @@
-// Internal: the context's innards (niagara's device.cpp, kept small): instance with the
+// The Vulkan core: the context's innards (niagara's device.cpp, kept small): instance with the
 // Khronos validation layer and a counting debug messenger, the physical device chosen by
-// capability (lavapipe accepted), one compute queue, and the pipelines shared by evaluators.
+// capability (lavapipe accepted), one queue, and a slot for the compute evaluator's pipelines.
 #pragma once
 
 #include "check.h"
-#include "pipelines.h"
 
 #include <atomic>
 #include <memory>
@@ -12,6 +11,10 @@
 #include <string>
 
 namespace psub {
+
+namespace vulkan {
+class Pipelines;  // the compute evaluator's (compute/vulkan/pipelines.h)
+}
 
 struct VulkanContext::Impl {
     VkInstance instance = VK_NULL_HANDLE;
@@ -34,7 +37,10 @@ struct VulkanContext::Impl {
     mutable std::mutex submitLock;   // serializes queue submissions
     std::string lastMessage;
 
-    std::unique_ptr<vulkan::Pipelines> pipelines;
+    // The compute evaluator's pipelines, made by it on first use (under pipelinesOnce) and kept
+    // for the context's lifetime; released before the device.
+    std::once_flag pipelinesOnce;
+    std::shared_ptr<vulkan::Pipelines> pipelines;
 
     ~Impl();
     // True when CPU and device share memory (lavapipe, integrated GPUs): no staging copies.

@@ -2,7 +2,9 @@
 // choice by capability with an override, one compute queue. Also VK_CHECK's reporting.
 #include "device.h"
 
-#include "psub/vulkan_interop.h"
+#include "psub/vulkan_device.h"
+
+#include "config.h"  // shaders/config.h: what the compute kernels need of a device
 
 #include <algorithm>
 #include <cctype>
@@ -229,10 +231,10 @@ Candidate examine(VkPhysicalDevice device, const PresentNeeds& needs) {
     const VkPhysicalDeviceLimits& limits = c.properties.limits;
     if (c.properties.apiVersion < VK_API_VERSION_1_1) c.why = "Vulkan 1.1 not supported";
     else if (c.family == ~0u) c.why = needs.filter && *needs.filter ? "no compute queue that can present" : "no compute queue";
-    else if (limits.maxPerStageDescriptorStorageBuffers < vulkan::uint(PSUB_BINDING_COUNT))
+    else if (limits.maxPerStageDescriptorStorageBuffers < std::uint32_t(PSUB_BINDING_COUNT))
         c.why = "fewer than " + std::to_string(PSUB_BINDING_COUNT) + " storage buffers per stage";
-    else if (limits.maxComputeWorkGroupSize[0] < vulkan::uint(PSUB_WORKGROUP_SIZE) ||
-             limits.maxComputeWorkGroupInvocations < vulkan::uint(PSUB_WORKGROUP_SIZE))
+    else if (limits.maxComputeWorkGroupSize[0] < std::uint32_t(PSUB_WORKGROUP_SIZE) ||
+             limits.maxComputeWorkGroupInvocations < std::uint32_t(PSUB_WORKGROUP_SIZE))
         c.why = "workgroups of " + std::to_string(PSUB_WORKGROUP_SIZE) + " not supported";
     else if (needs.deviceExtensions) {
         const std::string missing = missingDeviceExtension(device, *needs.deviceExtensions);
@@ -387,7 +389,6 @@ VulkanContext::VulkanContext(const VulkanOptions& options) : impl_(std::make_uni
     deviceInfo.ppEnabledExtensionNames = deviceExtensions.data();
     VK_CHECK(vkCreateDevice(c.physical, &deviceInfo, nullptr, &c.device));
     vkGetDeviceQueue(c.device, c.queueFamily, 0, &c.queue);
-    c.pipelines = std::make_unique<vulkan::Pipelines>(c.device);
 }
 
 VulkanContext::VulkanContext(const VulkanDeviceHandles& adopted) : impl_(std::make_unique<Impl>()) {
@@ -419,7 +420,6 @@ VulkanContext::VulkanContext(const VulkanDeviceHandles& adopted) : impl_(std::ma
     properties2.pNext = &maintenance3;
     vkGetPhysicalDeviceProperties2(c.physical, &properties2);
     c.maxAllocation = maintenance3.maxMemoryAllocationSize;
-    c.pipelines = std::make_unique<vulkan::Pipelines>(c.device);
 }
 
 VulkanContext::~VulkanContext() = default;

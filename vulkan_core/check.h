@@ -1,8 +1,8 @@
-// Internal: VK_CHECK, which turns any failing VkResult into a VulkanError naming the call,
+// The Vulkan core: VK_CHECK, which turns any failing VkResult into a VulkanError naming the call,
 // the result, the file and the line, in every build.
 #pragma once
 
-#include "psub/vulkan_evaluator.h"
+#include "psub/vulkan_context.h"
 
 #include <vulkan/vulkan.h>
 

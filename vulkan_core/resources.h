@@ -1,8 +1,8 @@
-// Internal: buffers and barriers (niagara's resources.cpp, kept small). A Buffer is plain
-// data; the evaluator owns its buffers and destroys them.
+// The Vulkan core: buffers, the memory-type choice and buffer/memory barriers (niagara's
+// resources.cpp, kept small). A Buffer is plain data; its user owns it and destroys it.
 #pragma once
 
-#include "check.h"
+#include "device.h"
 
 #include <cstdint>
 
@@ -27,6 +27,14 @@ Buffer createBuffer(const VulkanContext::Impl& context, VkDeviceSize bytes, VkBu
                     Memory memory, bool map);
 void destroyBuffer(const VulkanContext::Impl& context, Buffer& buffer);
 
+// The first memory type allowed by `bits` with all `required` flags, preferring one with all
+// `preferred` flags too; ~0u when none is allowed.
+std::uint32_t findMemoryType(const VkPhysicalDeviceMemoryProperties& memory, std::uint32_t bits,
+                             VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred);
+// A device-local memory type among `bits` (any allowed one when none is device-local), for
+// images; VulkanError naming `what` when none is allowed.
+std::uint32_t deviceMemoryType(const VulkanContext::Impl& context, std::uint32_t bits, const char* what = "an image");
+
 // True when a memory type is device-local, host-visible and coherent (buffers can be written
 // in place).
 bool hasHostVisibleDeviceMemory(const VulkanContext::Impl& context);
@@ -36,10 +44,5 @@ void bufferBarrier(VkCommandBuffer command, const Buffer& buffer, VkPipelineStag
                    VkAccessFlags destinationAccess);
 void memoryBarrier(VkCommandBuffer command, VkPipelineStageFlags sourceStage, VkAccessFlags sourceAccess,
                    VkPipelineStageFlags destinationStage, VkAccessFlags destinationAccess);
-
-// Submits one recorded command buffer to the context's queue (under its submit lock; a
-// validation message raised meanwhile is still recorded: the messenger has its own lock), waits for
-// `fence` and resets it.
-void submitAndWait(VulkanContext::Impl& context, VkCommandBuffer command, VkFence fence);
 
 }  // namespace psub::vulkan

@@ -1,0 +1,281 @@
+// The Vulkan evaluator's construction work on buffers: vertex buffers in binding-sized windows,
+// the tables of each form uploaded once, and the stages of dispatches over them (rows split
+// by dispatch_plan.h into chunks whose table ranges fit one binding).
+#include "vulkan_evaluator_impl.h"
+
+#include <algorithm>
+#include <cassert>
+
+namespace psub {
+
+void VulkanEvaluator::Impl::makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride,
+                                             bool mapped) {
+    v.elements = elements;
+    v.stride = stride;
+    // Windows are whole multiples of 64 elements, so each starts at a 256-byte multiple (the
+    // largest minStorageBufferOffsetAlignment the specification allows).
+    std::uint64_t perWindow = limit / (4ull * stride);
+    perWindow -= perWindow % 64;
+    if (perWindow == 0) throw VulkanError("binding limit of " + std::to_string(limit) + " bytes is too small");
+    const std::uint64_t windows = std::max<std::uint64_t>(1, (elements + perWindow - 1) / perWindow);
+    if (windows > PSUB_VERTEX_WINDOWS)
+        throw VulkanError("a vertex buffer of " + mib(elements * stride * 4) + " needs " + std::to_string(windows) +
+                          " bindings of at most " + mib(limit) + " on " + context.properties.deviceName +
+                          "; PSub binds at most " + std::to_string(PSUB_VERTEX_WINDOWS));
+    v.windows = std::uint32_t(windows);
+    v.windowSize = std::uint32_t(std::min<std::uint64_t>(perWindow, 0xffffffffu));
+    const bool map = mapped && !staging;
+    v.buffer = createBuffer(context, elements * stride * 4, kUsage, Memory::Device, map);
+}
+
+Window VulkanEvaluator::Impl::window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin,
+                                     std::uint64_t end) const {
+    Window w;
+    w.buffer = buffer.buffer;
+    if (begin >= end) {  // nothing is read: any valid range
+        w.offset = 0;
+        w.range = std::min<VkDeviceSize>(buffer.size, limit);
+        return w;
+    }
+    w.offset = begin * elementBytes / alignment * alignment;
+    w.range = end * elementBytes - w.offset;
+    w.firstElement = w.offset / elementBytes;
+    assert(w.offset % elementBytes == 0 && w.range <= limit && w.offset + w.range <= buffer.size);
+    return w;
+}
+
+BindingLimits VulkanEvaluator::Impl::bindingLimits() const { return {limit, alignment, maxRows}; }
+
+template <class Fits>
+std::vector<std::pair<std::uint64_t, std::uint64_t>> VulkanEvaluator::Impl::split(std::uint64_t rows, Fits fitsRange,
+                                                                                   const char* what) const {
+    return splitRows(rows, bindingLimits(), fitsRange, what);
+}
+
+template <class Offset>
+std::vector<CsrChunk> VulkanEvaluator::Impl::splitCsr(const std::vector<Offset>& offsets,
+                                                      std::vector<std::uint32_t>& relative, const char* what) const {
+    return vulkan::splitCsr(offsets, bindingLimits(), relative, what);
+}
+
+Dispatch VulkanEvaluator::Impl::dispatch(std::uint64_t rows) const {
+    Dispatch d;
+    d.push.rowCount = std::uint32_t(rows);
+    const WorkgroupGrid grid =
+        workgroupsFor(rows, PSUB_WORKGROUP_SIZE, context.properties.limits.maxComputeWorkGroupCount[0]);
+    d.groupsX = grid.x, d.groupsY = grid.y;
+    return d;
+}
+
+namespace {
+
+// Row shapes (n edge neighbours, m diagonals) with a pipeline of their own, the loop counts
+// compiled in: face quads and triangles, retained vertices, valence 3 and 4 vertices.
+bool specialisedShape(std::uint32_t n, std::uint32_t m) {
+    return (n == 3 && m == 0) || (n == 4 && m == 4) || (n == 0 && m == 0) || (n == 2 && m == 0) || (n == 3 && m == 3);
+}
+
+}  // namespace
+
+
+void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& uploader) {
+    // The device's copy of the table: each row's 1 + n + m source indices, then its
+    // destination, padded to a multiple of 4 words (fetched as uvec4: one fetch per 4 words).
+    // One dispatch per group (per chunk of a group too large for one binding): the group's
+    // record gives the weights and where its rows start; its shape picks the pipeline.
+    std::uint64_t wordCount = 0;
+    std::vector<GroupRecord> records;
+    struct Pending {
+        std::size_t level;
+        Dispatch dispatch;
+        std::uint64_t record, wordBegin, wordEnd;
+    };
+    std::vector<Pending> pending;
+    for (std::size_t k = 0; k < table.levels.size(); ++k) {
+        const StencilLevel& level = table.levels[k];
+        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+            const RowGroup& g = table.groups[gi];
+            if (g.rowCount == 0) continue;
+            const std::uint64_t stride = (std::uint64_t(g.width) + 4) / 4 * 4;
+            const std::uint64_t groupWords = wordCount;
+            wordCount += g.rowCount * stride;
+            const auto chunks = split(
+                g.rowCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * stride * (b - a)); }, "per-level table");
+            for (const auto& [a, b] : chunks) {
+                Pending p{k, dispatch(b - a), records.size(), groupWords + a * stride, groupWords + b * stride};
+                p.dispatch.rowN = specialisedShape(g.n, g.m) ? g.n : kAnyShape;
+                p.dispatch.rowM = specialisedShape(g.n, g.m) ? g.m : kAnyShape;
+                const std::uint64_t wordFirst = p.wordBegin * 4 / alignment * alignment / 4;
+                records.push_back({0, std::uint32_t(p.wordBegin - wordFirst), g.n, g.m, float(g.centre), float(g.edge),
+                                   float(g.diagonal), 0});
+                pending.push_back(p);
+            }
+        }
+    }
+    const Buffer groups = uploader.upload(records, tables);
+    const Buffer rows = uploader.uploadFilled<std::uint32_t>(
+        wordCount,
+        [&](std::uint32_t* words) {
+            for (const StencilLevel& level : table.levels)
+                for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+                    const RowGroup& g = table.groups[gi];
+                    const std::uint64_t stride = (std::uint64_t(g.width) + 4) / 4 * 4;
+                    for (std::uint64_t r = 0; r < g.rowCount; ++r, words += stride) {
+                        const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
+                        std::copy(ix, ix + g.width, words);
+                        words[g.width] = table.destinations[g.rowBegin + r];
+                        std::fill(words + g.width + 1, words + stride, 0u);
+                    }
+                }
+        },
+        tables);
+    for (std::size_t k = 0; k < table.levels.size(); ++k) {
+        Stage stage;
+        stage.kernel = Kernel::Level;
+        stage.specialization = {width, levels[k].stride, levels[k + 1].stride, levels[k].windows > 1,
+                                levels[k + 1].windows > 1};
+        stage.written = &levels[k + 1];
+        for (Pending& p : pending) {
+            if (p.level != k) continue;
+            Dispatch& d = p.dispatch;
+            d.source = &levels[k];
+            d.destination = &levels[k + 1];
+            d.tables[0] = window(groups, sizeof(GroupRecord), p.record, p.record + 1);
+            d.tables[1] = window(rows, 4, p.wordBegin, p.wordEnd);
+            d.tables[2] = d.tables[1];
+            d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+            d.push.groupBase = std::uint32_t(p.record - d.tables[0].firstElement);
+            d.push.groupCount = 1;
+            d.push.sourceWindowSize = levels[k].windowSize;
+            d.push.destinationWindowSize = levels[k + 1].windowSize;
+            stage.dispatches.push_back(d);
+        }
+        stencilStages.push_back(std::move(stage));
+    }
+}
+
+void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Uploader& uploader) {
+    std::vector<std::uint32_t> relative;
+    const std::vector<CsrChunk> chunks = splitCsr(table.offsets, relative, "factorized table");
+    const Buffer offsets = uploader.upload(relative, tables);
+    const Buffer indices = uploader.upload(table.indices, tables);
+    const Buffer weights = uploader.upload(table.weights, tables);
+    Stage stage;
+    stage.kernel = Kernel::Factorized;
+    stage.specialization = {width, levels.front().stride, refinedBuffer().stride, levels.front().windows > 1,
+                            refinedBuffer().windows > 1};
+    stage.written = &refinedBuffer();
+    for (const CsrChunk& c : chunks) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &levels.front();
+        d.destination = &refinedBuffer();
+        d.tables[0] = window(offsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(indices, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = window(weights, 4, c.entryBegin, c.entryEnd);
+        d.push.rowBase = std::uint32_t(c.rowBegin);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = levels.front().windowSize;
+        d.push.destinationWindowSize = refinedBuffer().windowSize;
+        stage.dispatches.push_back(d);
+    }
+    stencilStages.push_back(std::move(stage));
+}
+
+void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& uploader) {
+    const std::uint64_t faces = surface.faceOffsets.size() - 1;
+    // Padded: read and written as vec4. One element more, after the faces': zero, cleared by
+    // every frame, for the fixed vertex layout's unused slots.
+    makeVertexBuffer(faceNormals, faces + 1, 4, false);
+    makeVertexBuffer(normals, surface.vertexCount, 4, true);  // padded: written as vec4, read back as xyz
+    std::vector<std::uint32_t> faceRelative, vertexRelative;
+    const std::vector<CsrChunk> faceChunks = splitCsr(surface.faceOffsets, faceRelative, "surface's faces");
+    const Buffer faceOffsets = uploader.upload(faceRelative, tables);
+    const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
+    const VertexBuffer& positions = refinedBuffer();
+    // Two fixed layouts that save the kernels their offset loads (one uvec4 fetch per 4 words):
+    // all faces quads (corners of face f at 4 f), and every vertex in at most 8 faces (vertex
+    // v's 8 words at 8 v: its faces in table order, then the zero element's number).
+    bool allQuads = faces > 0;
+    for (std::uint64_t f = 0; f < faces && allQuads; ++f) allQuads = surface.faceOffsets[f + 1] - surface.faceOffsets[f] == 4;
+    constexpr std::uint32_t kVertexWords = 8;
+    bool fixedVertices = surface.vertexCount > 0;
+    for (std::uint32_t v = 0; v < surface.vertexCount && fixedVertices; ++v)
+        fixedVertices = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] <= kVertexWords;
+    Buffer vertexWords;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> vertexRows;
+    if (fixedVertices) {
+        vertexWords = uploader.uploadFilled<std::uint32_t>(
+            std::size_t(surface.vertexCount) * kVertexWords,
+            [&](std::uint32_t* words) {
+                for (std::uint32_t v = 0; v < surface.vertexCount; ++v, words += kVertexWords) {
+                    const std::uint32_t begin = surface.vertexOffsets[v], end = surface.vertexOffsets[v + 1];
+                    std::copy(surface.vertexFaces.begin() + begin, surface.vertexFaces.begin() + end, words);
+                    std::fill(words + (end - begin), words + kVertexWords, std::uint32_t(faces));
+                }
+            },
+            tables);
+        vertexRows = split(
+            surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * kVertexWords * (b - a)); },
+            "surface's vertex faces");
+    }
+    // Otherwise the CSR table of each vertex's faces.
+    const std::vector<CsrChunk> vertexChunks =
+        fixedVertices ? std::vector<CsrChunk>{} : splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
+    const Buffer vertexOffsets = fixedVertices ? Buffer{} : uploader.upload(vertexRelative, tables);
+    const Buffer vertexFaces = fixedVertices ? Buffer{} : uploader.upload(surface.vertexFaces, tables);
+
+    // One chunk of a CSR table (row offsets, entries) as a dispatch from `from` to `to`.
+    const auto csrDispatch = [&](const CsrChunk& c, const Buffer& offsets, const Buffer& entries,
+                                 const VertexBuffer& from, const VertexBuffer& to) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &from;
+        d.destination = &to;
+        d.tables[0] = window(offsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(entries, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = d.tables[1];
+        d.push.rowBase = std::uint32_t(c.rowBegin);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = from.windowSize;
+        d.push.destinationWindowSize = to.windowSize;
+        return d;
+    };
+    Stage faceStage;
+    faceStage.kernel = Kernel::FaceNormals;
+    faceStage.specialization = {3, positions.stride, faceNormals.stride, positions.windows > 1, faceNormals.windows > 1};
+    faceStage.written = &faceNormals;
+    for (const CsrChunk& c : faceChunks) {
+        Dispatch d = csrDispatch(c, faceOffsets, faceVerts, positions, faceNormals);
+        if (allQuads) {  // corners of row r at 4 r from tableBase, fetched as one uvec4
+            d.rowN = 4;
+            d.texelFormats[1] = VK_FORMAT_R32G32B32A32_UINT;
+            d.push.tableBase = std::uint32_t(c.entryBegin - d.tables[1].firstElement);
+        }
+        faceStage.dispatches.push_back(d);
+    }
+    Stage vertexStage;
+    vertexStage.kernel = Kernel::VertexNormals;
+    vertexStage.specialization = {3, faceNormals.stride, normals.stride, faceNormals.windows > 1, normals.windows > 1};
+    vertexStage.written = &normals;
+    for (const auto& [a, b] : vertexRows) {
+        Dispatch d = dispatch(b - a);
+        d.source = &faceNormals;
+        d.destination = &normals;
+        d.tables[0] = window(vertexWords, 4, kVertexWords * a, kVertexWords * b);
+        d.tables[1] = d.tables[2] = d.tables[0];
+        d.texelFormats[0] = d.texelFormats[1] = d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+        d.rowN = kVertexWords;
+        d.push.groupBase = std::uint32_t(faces);  // the zero element
+        d.push.groupCount = kVertexWords / 4;     // uvec4s per vertex
+        d.push.rowBase = std::uint32_t(a);
+        d.push.tableBase = std::uint32_t(kVertexWords * a - d.tables[1].firstElement);
+        d.push.sourceWindowSize = faceNormals.windowSize;
+        d.push.destinationWindowSize = normals.windowSize;
+        vertexStage.dispatches.push_back(d);
+    }
+    for (const CsrChunk& c : vertexChunks)
+        vertexStage.dispatches.push_back(csrDispatch(c, vertexOffsets, vertexFaces, faceNormals, normals));
+    normalStages.push_back(std::move(faceStage));
+    normalStages.push_back(std::move(vertexStage));
+}
+
+}  // namespace psub
