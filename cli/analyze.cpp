@@ -144,6 +144,27 @@ int runOptimizeShape(const AnalyzeOptions& options) {
     return 0;
 }
 
+// psub analyze --shape-tradeoff: beyond the vertex weights at n = 3 (docs/shape-rules.md, 4).
+int runShapeTradeoff() {
+    TradeoffOptions search;
+    for (int k = 0; k <= 22; ++k) search.faceCorners.push_back(0.10 + 0.025 * k);  // alpha 0.10 .. 0.65
+    search.neighbourCentres = {0.0, 0.0625, 0.125, 0.1875, 0.25};                   // beta
+    search.centreSteps = 25;
+    search.shareSteps = 4;
+    const std::vector<double> gaps{0.0, 0.02, 0.05, 0.08, 0.10, 0.12, 0.14, 0.16};
+    const std::vector<ExtendedCandidate> best = shapeTradeoff(gaps, search);
+    std::printf("| least gap | alpha | beta | c | d | e | lambda1 | gap | cube volume ratio | Hausdorff / diagonal | "
+                "normal spread deg | corner spread deg |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (std::size_t k = 0; k < best.size(); ++k) {
+        const ExtendedCandidate& b = best[k];
+        std::printf("| %.2f | %.3f | %.4f | %.2f | %.6f | %.6f | %.6f | %.4f | %.4f | %.4f | %.2f | %.2f |\n", gaps[k],
+                    b.rule.faceCorner, b.rule.neighbourCentre, b.rule.centre.centre, b.rule.centre.edge,
+                    b.rule.centre.diagonal, b.lambda1, b.spectralGap, b.volumeRatio, b.hausdorff, b.normalSpreadDegrees,
+                    b.cornerSpreadDegrees);
+    }
+    return 0;
+}
+
 }  // namespace
 
 std::vector<Index> parseValences(const std::string& text) {
@@ -178,6 +199,7 @@ std::vector<Index> parseValences(const std::string& text) {
 int runAnalyze(const AnalyzeOptions& options) {
     if (!options.boundaryModel.empty()) return runBoundaryAspect(options);
     if (options.optimizeShape) return runOptimizeShape(options);
+    if (options.shapeTradeoff) return runShapeTradeoff();
     const std::vector<Index> valences = parseValences(options.valences);
     ValenceOptions valenceOptions;
     valenceOptions.characteristicRings = options.rings;
