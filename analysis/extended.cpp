@@ -91,6 +91,33 @@ ExtendedRefinement refineExtended(const Mesh& mesh, int psSteps, const ExtendedS
     return QuadRefinement(mesh, psSteps).apply(mesh, rule);
 }
 
+ExtendedCandidate measureExtendedRule(const ExtendedShapeRule& rule, const TradeoffOptions& options) {
+    if (rule.valence != 3) throw std::invalid_argument("measureExtendedRule: valence 3 (the cube's corners)");
+    ExtendedCandidate out;
+    out.rule = rule;
+    ValenceOptions check;
+    check.extendedRule = rule;
+    const ValenceReport report = analyzeValence(3, Rules::Paper, check);
+    out.lambda1 = report.lambda1;
+    out.spectralGap = report.spectralGap;
+    out.normalSpreadDegrees = report.normalSpreadDegrees.back();
+    out.c1 = report.c1Necessary && report.characteristicMapInjective;
+    const Mesh cube = trapezohedron(3);
+    const CatmarkLevel cc = refineCatmark(cube.faces, cube.positions, options.psSteps / 2).back();
+    const MeshMeasures ccMeasures = measureMesh(cc.faces, cc.positions);
+    const ExtendedRefinement ps = refineExtended(cube, options.psSteps, rule);
+    out.volumeRatio = measureMesh(ps.faces, ps.positions).volume / ccMeasures.volume;
+    double worst = 0;
+    for (double d : surfaceDistances(ps.faces, ps.positions, cc.faces, cc.positions, options.samplesPerEdge))
+        worst = std::max(worst, d);
+    for (double d : surfaceDistances(cc.faces, cc.positions, ps.faces, ps.positions, options.samplesPerEdge))
+        worst = std::max(worst, d);
+    out.hausdorff = worst / ccMeasures.diagonal();
+    const ExtendedRefinement fine = refineExtended(cube, options.cornerSteps, rule);
+    out.cornerSpreadDegrees = cornerSpread(fine.faces, fine.positions);
+    return out;
+}
+
 std::vector<ExtendedCandidate> shapeTradeoff(std::span<const double> leastGaps, const TradeoffOptions& options) {
     if (leastGaps.empty() || options.centreSteps < 1 || options.shareSteps < 1 || options.psSteps < 2 ||
         options.psSteps % 2 != 0 || options.cornerSteps < 1)
@@ -123,12 +150,6 @@ std::vector<ExtendedCandidate> shapeTradeoff(std::span<const double> leastGaps, 
                     if (!pair || candidate.lambda1 >= 1 || candidate.spectralGap < leastOfAll) continue;
                     const ExtendedRefinement ps = refinement.apply(cube, rule);
                     candidate.volumeRatio = measureMesh(ps.faces, ps.positions).volume / ccMeasures.volume;
-                    double worst = 0;
-                    for (double d : surfaceDistances(ps.faces, ps.positions, cc.faces, cc.positions, options.samplesPerEdge))
-                        worst = std::max(worst, d);
-                    for (double d : surfaceDistances(cc.faces, cc.positions, ps.faces, ps.positions, options.samplesPerEdge))
-                        worst = std::max(worst, d);
-                    candidate.hausdorff = worst / ccMeasures.diagonal();
                     feasible.push_back(candidate);
                 }
     const auto better = [](const ExtendedCandidate& a, const ExtendedCandidate& b) {
@@ -144,16 +165,7 @@ std::vector<ExtendedCandidate> shapeTradeoff(std::span<const double> leastGaps, 
             if (candidate.spectralGap < gap) continue;
             if (!checked[k]) {
                 checked[k] = 1;
-                ValenceOptions check;
-                check.extendedRule = candidate.rule;
-                const ValenceReport report = analyzeValence(3, Rules::Paper, check);
-                candidate.normalSpreadDegrees = report.normalSpreadDegrees.back();
-                candidate.c1 = report.c1Necessary && report.characteristicMapInjective;
-                if (candidate.c1) {
-                    const Mesh& mesh = cube;
-                    const ExtendedRefinement fine = refineExtended(mesh, options.cornerSteps, candidate.rule);
-                    candidate.cornerSpreadDegrees = cornerSpread(fine.faces, fine.positions);
-                }
+                candidate = measureExtendedRule(candidate.rule, options);
             }
             if (candidate.c1) break;
         }

@@ -98,5 +98,42 @@ TEST(ShapeExtended, RefinementMatchesTheEngineAtTheDefaults) {
     EXPECT_THROW(refineExtended(triangle, 2, ruleOf(3, paper, 0.25, 0.125)), std::invalid_argument);
 }
 
+// One point of the trade-off curve (docs/shape-rules.md, section 4, least gap 0.12), recomputed:
+// alpha = 0.525, beta = 0, (c, d, e) = (0.8, 0, 0.2 / 3) keeps C1 with a gap above 0.12 and
+// the cube past half of Catmull-Clark's volume.
+TEST(ShapeExtended, TradeoffPointAtGap012KeepsC1AndHalfTheVolume) {
+    const ExtendedCandidate point = measureExtendedRule(ruleOf(3, {0.8, 0.0, 0.2 / 3}, 0.525, 0.0));
+    EXPECT_TRUE(point.c1);
+    EXPECT_GE(point.spectralGap, 0.12);
+    EXPECT_NEAR(point.spectralGap, 0.1216, 1e-4);
+    EXPECT_NEAR(point.lambda1, 0.371106, 1e-6);
+    EXPECT_GE(point.volumeRatio, 0.5);
+    EXPECT_NEAR(point.volumeRatio, 0.5652, 1e-4);
+    EXPECT_NEAR(point.hausdorff, 0.0787, 1e-4);
+    EXPECT_NEAR(point.cornerSpreadDegrees, 17.66, 0.01);
+    // The same measure for the paper's rules reproduces psub compare's cube after 10 steps (6.2
+    // degrees at the corners) and the volume ratio of 4 steps.
+    const ExtendedCandidate paper = measureExtendedRule(ruleOf(3, quadVertexWeights(3, Rules::Paper), 0.25, 0.125));
+    EXPECT_TRUE(paper.c1);
+    EXPECT_NEAR(paper.cornerSpreadDegrees, 6.21, 0.01);
+    EXPECT_NEAR(paper.volumeRatio, 0.0325, 1e-4);
+}
+
+// The search with alpha = 1/4 and beta = 1/8 fixed is the vertex-weight family: lambda1 stays the
+// paper's and the cube stays below half of Catmull-Clark's volume with a gap of 0.12.
+TEST(ShapeExtended, VertexWeightsAloneStayBelowHalfAtGap012) {
+    TradeoffOptions options;
+    options.faceCorners = {0.25};
+    options.neighbourCentres = {0.125};
+    const std::vector<double> gaps{0.12};
+    const std::vector<ExtendedCandidate> best = shapeTradeoff(gaps, options);
+    ASSERT_EQ(best.size(), 1u);
+    EXPECT_TRUE(best[0].c1);
+    EXPECT_GE(best[0].spectralGap, 0.12);
+    EXPECT_NEAR(best[0].lambda1, analyzeValence(3, Rules::Paper).lambda1, 1e-9);
+    EXPECT_LT(best[0].volumeRatio, 0.5);
+    EXPECT_GT(best[0].volumeRatio, 0.25);
+}
+
 }  // namespace
 }  // namespace psub

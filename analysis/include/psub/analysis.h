@@ -272,7 +272,8 @@ ExtendedRefinement refineExtended(const Mesh& mesh, int psSteps, const ExtendedS
 struct ExtendedCandidate {
     ExtendedShapeRule rule;
     double lambda1 = 0, spectralGap = 0;   // of the 3-ring two-step matrix
-    double volumeRatio = 0, hausdorff = 0;  // the cube, P-S psSteps against CC psSteps / 2
+    double volumeRatio = 0;           // the cube, P-S psSteps against CC psSteps / 2
+    double hausdorff = 0;             // the same, relative to CC's box diagonal (measured ones only)
     double normalSpreadDegrees = 0;   // analyzeValence's bumpy neighbourhood, 10 two-step levels
     double cornerSpreadDegrees = 0;   // at the cube's corners after cornerSteps P-S steps
     bool c1 = false;                  // analyzeValence: C1 conditions and injective map
@@ -284,6 +285,9 @@ struct TradeoffOptions {
     int centreSteps = 50;   // c in steps of 1 / centreSteps in [0, 1)
     int shareSteps = 4;     // the diagonals' share of 1 - c in steps of 1 / shareSteps
 };
+
+// Everything above for one rule of valence 3: analyzeValence's checks and the cube.
+ExtendedCandidate measureExtendedRule(const ExtendedShapeRule& rule, const TradeoffOptions& options = {});
 
 // At valence 3, on the cube: for each least gap, the candidate (c, d, e, alpha, beta) on the
 // grid of `options` with the smallest |volume ratio - 1| among those whose spectral gap is at
