@@ -161,7 +161,42 @@ void setQuadVertexWeights(PerLevelTable& table, Index valence, VertexWeights wei
             std::tie(group.centre, group.edge, group.diagonal) = std::tuple(weights.centre, weights.edge, weights.diagonal);
 }
 
-SparseRowsD composePerLevel(const PerLevelTable& table) {
+namespace {
+
+// Marks the sources of `level` whose rows are VertexQuad rows of valence n: the corners the
+// experimental rule treats as extraordinary.
+std::vector<char> extraordinarySources(const PerLevelTable& table, const StencilLevel& level, std::uint32_t n) {
+    std::vector<char> marked(level.sourceCount, 0);
+    for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+        const RowGroup& group = table.groups[g];
+        if (group.kind != RowKind::VertexQuad || group.n != n) continue;
+        for (std::uint64_t r = 0; r < group.rowCount; ++r) marked[table.indices[group.indexBegin + r * group.width]] = 1;
+    }
+    return marked;
+}
+
+// One row's weights under `rule` (see ExtendedShapeRule); `weights` holds the table's.
+void applyRule(const RowGroup& group, const std::uint32_t* sources, const std::vector<char>& marked,
+               const ExtendedShapeRule& rule, std::span<double> weights) {
+    if (group.kind == RowKind::VertexQuad && group.n == rule.valence) {
+        weights[0] = rule.centre.centre;
+        for (std::uint32_t j = 1; j < group.width; ++j) weights[j] = j <= group.n ? rule.centre.edge : rule.centre.diagonal;
+    } else if (group.kind == RowKind::FaceQuad) {
+        double sum = 0;
+        for (std::uint32_t j = 0; j < 4; ++j) sum += weights[j] = marked[sources[j]] ? rule.faceCorner : (1 - rule.faceCorner) / 3;
+        for (double& w : weights) w /= sum;
+    } else if (group.kind == RowKind::VertexQuad && group.n == 4) {
+        for (std::uint32_t j = 1; j <= 4; ++j)
+            if (marked[sources[j]]) {
+                weights[0] += weights[j] - rule.neighbourCentre;
+                weights[j] = rule.neighbourCentre;
+            }
+    }
+}
+
+}  // namespace
+
+SparseRowsD composePerLevel(const PerLevelTable& table, const ExtendedShapeRule* rule) {
     SparseRowsD current;  // control -> control: the identity
     current.offsets.resize(std::size_t(table.controlCount) + 1);
     for (std::uint32_t v = 0; v <= table.controlCount; ++v) current.offsets[v] = v;
@@ -170,13 +205,18 @@ SparseRowsD composePerLevel(const PerLevelTable& table) {
     for (const StencilLevel& level : table.levels) {
         // Each child row as a list of (parent vertex, weight), then composed with `current`.
         std::vector<std::vector<std::pair<std::uint32_t, double>>> child(level.destinationCount);
+        const std::vector<char> marked = rule ? extraordinarySources(table, level, rule->valence) : std::vector<char>{};
+        std::vector<double> weights;
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
             for (std::uint64_t r = 0; r < group.rowCount; ++r) {
                 const std::uint32_t* sources = &table.indices[group.indexBegin + r * group.width];
                 auto& row = child[table.destinations[group.rowBegin + r]];
+                weights.clear();
                 for (std::uint32_t j = 0; j < group.width; ++j)
-                    row.emplace_back(sources[j], j == 0 ? group.centre : j <= group.n ? group.edge : group.diagonal);
+                    weights.push_back(j == 0 ? group.centre : j <= group.n ? group.edge : group.diagonal);
+                if (rule) applyRule(group, sources, marked, *rule, weights);
+                for (std::uint32_t j = 0; j < group.width; ++j) row.emplace_back(sources[j], weights[j]);
             }
         }
         SparseRowsD next;
@@ -266,6 +306,18 @@ LocalMatrix twoStepMatrix(Index valence, Rules rules, const VertexWeights* centr
 
 LocalMatrix psTwoStepMatrix(Index valence, Rules rules, int rings) {
     return twoStepMatrix(valence, rules, nullptr, rings);
+}
+
+LocalMatrix psTwoStepMatrix(const ExtendedShapeRule& rule, int rings) {
+    if (rule.valence < 3 || rule.valence == 4) throw std::invalid_argument("psTwoStepMatrix: the rule's valence is 3 or more, not 4");
+    if (rings < 3) throw std::invalid_argument("psTwoStepMatrix: rings >= 3");
+    const LocalMesh local = makeLocalMesh(rule.valence, rings + 2);
+    const Connectivity connectivity = buildConnectivity(local.mesh.faces);
+    const Hierarchy hierarchy = refineTopology(local.mesh.faces, connectivity, false, 2);
+    const PerLevelTable table = buildPerLevelTable(hierarchy, Rules::Paper);
+    const std::vector<GridKey> fine =
+        refineKeysTwoSteps(int(rule.valence), hierarchy.levels[0].faces, local.keys, hierarchy.levels[1].faces);
+    return extractMatrix(int(rule.valence), rings, local.keys, fine, composePerLevel(table, &rule), "P-S two-step matrix");
 }
 
 LocalMatrix psTwoStepMatrix(Index valence, VertexWeights centre, int rings) {

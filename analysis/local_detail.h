@@ -45,7 +45,8 @@ LocalMatrix extractMatrix(int n, int rings, std::span<const GridKey> coarseKeys,
 // carry their weights per group, so every evaluator of the table follows).
 void setQuadVertexWeights(PerLevelTable& table, Index valence, VertexWeights weights);
 
-// The per-level table's steps composed in double: control points -> finest level.
-SparseRowsD composePerLevel(const PerLevelTable& table);
+// The per-level table's steps composed in double: control points -> finest level; with
+// `rule`, its weights replace the table's where it applies.
+SparseRowsD composePerLevel(const PerLevelTable& table, const ExtendedShapeRule* rule = nullptr);
 
 }  // namespace psub::detail

@@ -159,8 +159,11 @@ ValenceReport analyzeValence(Index valence, Rules rules, const ValenceOptions& o
 
     // The whole matrix on `rings` rings; its 3-ring block is the 3-ring matrix (rows of ring
     // <= 3 never reach further out: the neighbourhood is invariant).
-    const LocalMatrix whole = options.centreWeights ? psTwoStepMatrix(valence, *options.centreWeights, rings)
-                                                    : psTwoStepMatrix(valence, rules, rings);
+    if (options.extendedRule && options.extendedRule->valence != valence)
+        throw std::invalid_argument("analyzeValence: the extended rule is for another valence");
+    const LocalMatrix whole = options.extendedRule   ? psTwoStepMatrix(*options.extendedRule, rings)
+                              : options.centreWeights ? psTwoStepMatrix(valence, *options.centreWeights, rings)
+                                                      : psTwoStepMatrix(valence, rules, rings);
     const MatrixView matrix = view(whole);
     std::vector<Eigen::Index> ringBegin{0, 1};  // rows of ring k: ringBegin[k] .. ringBegin[k+1]
     for (int k = 1; k <= rings; ++k) ringBegin.push_back(ringBegin.back() + 2 * k * n);

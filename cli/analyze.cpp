@@ -144,6 +144,34 @@ int runOptimizeShape(const AnalyzeOptions& options) {
     return 0;
 }
 
+// psub analyze --shape-tradeoff: beyond the vertex weights at n = 3 (docs/shape-rules.md, 4):
+// per least gap the best candidate, then the paper's and the shape rules' weights measured the
+// same way.
+int runShapeTradeoff() {
+    TradeoffOptions search;
+    for (int k = 0; k <= 34; ++k) search.faceCorners.push_back(0.10 + 0.025 * k);  // alpha 0.10 .. 0.95
+    for (int k = 0; k <= 8; ++k) search.neighbourCentres.push_back(k / 32.0);      // beta 0 .. 1/4
+    search.centreSteps = 50;
+    search.shareSteps = 4;
+    const std::vector<double> gaps{0.0, 0.02, 0.05, 0.08, 0.10, 0.12, 0.14, 0.16};
+    const std::vector<ExtendedCandidate> best = shapeTradeoff(gaps, search);
+    std::printf("| least gap | alpha | beta | c | d | e | lambda1 | gap | cube volume ratio | Hausdorff / diagonal | "
+                "normal spread deg | corner spread deg |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    const auto row = [](const std::string& label, const ExtendedCandidate& b) {
+        std::printf("| %s | %.3f | %.5f | %.2f | %.6f | %.6f | %.6f | %.4f | %.4f | %.4f | %.2f | %.2f |%s\n", label.c_str(),
+                    b.rule.faceCorner, b.rule.neighbourCentre, b.rule.centre.centre, b.rule.centre.edge,
+                    b.rule.centre.diagonal, b.lambda1, b.spectralGap, b.volumeRatio, b.hausdorff, b.normalSpreadDegrees,
+                    b.cornerSpreadDegrees, b.c1 ? "" : " not C1");
+    };
+    for (std::size_t k = 0; k < best.size(); ++k) row(std::to_string(gaps[k]).substr(0, 4), best[k]);
+    for (Rules rules : {Rules::Paper, Rules::Shape}) {
+        ExtendedShapeRule rule;
+        rule.centre = quadVertexWeights(3, rules);
+        row(rules == Rules::Paper ? "(paper)" : "(shape: c, d, e only)", measureExtendedRule(rule, search));
+    }
+    return 0;
+}
+
 }  // namespace
 
 std::vector<Index> parseValences(const std::string& text) {
@@ -178,6 +206,7 @@ std::vector<Index> parseValences(const std::string& text) {
 int runAnalyze(const AnalyzeOptions& options) {
     if (!options.boundaryModel.empty()) return runBoundaryAspect(options);
     if (options.optimizeShape) return runOptimizeShape(options);
+    if (options.shapeTradeoff) return runShapeTradeoff();
     const std::vector<Index> valences = parseValences(options.valences);
     ValenceOptions valenceOptions;
     valenceOptions.characteristicRings = options.rings;

@@ -21,6 +21,7 @@ struct AnalyzeOptions {
     bool optimizeShape = false;  // set: search Rules::Shape's weights at each valence instead
     double minimumGap = 0.12;    // of that search (see psub/analysis.h)
     double maximumSpread = 30;   // degrees, of that search
+    bool shapeTradeoff = false;  // set: the n = 3 trade-off beyond the vertex weights instead
 };
 
 struct CompareOptions {

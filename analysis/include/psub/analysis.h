@@ -89,12 +89,30 @@ std::vector<std::complex<double>> eigenvalues(const LocalMatrix& matrix);
 // ---------------------------------------------------------------------------------------
 // Smoothness at one valence
 
+// Beyond the vertex weights (experimental, analysis only; see shapeTradeoff below).
+// Rules next to an extraordinary interior vertex P of valence n with quads around it, which
+// reach the modes k != 0 and so move lambda1 itself. A "corner of valence n" below is a vertex
+// whose table row is a VertexQuad row of valence n.
+struct ExtendedShapeRule {
+    Index valence = 3;          // n, 3 or more, not 4
+    VertexWeights centre{};     // P's own rule (c, d, e)
+    // alpha: a quad's F-vertex weighs each corner of valence n by alpha and each other corner
+    // by (1 - alpha) / 3, divided by their sum (one such corner: exactly alpha and
+    // (1 - alpha) / 3; the paper: 1/4).
+    double faceCorner = 0.25;
+    // beta: a regular vertex's rule weighs each edge neighbour of valence n by beta instead of
+    // 1/8; the difference goes to the vertex itself (the paper: 1/8).
+    double neighbourCentre = 0.125;
+};
+
 struct ValenceOptions {
     int characteristicRings = 8;  // rings of the characteristic map's control net, >= 4
     int tangentLevels = 10;       // two-step levels of the tangent-plane check, >= 1
     double tolerance = 1e-8;      // relative: "real", "equal" and "larger" for eigenvalues
     // Set: the centre's weights instead of those of the rule set (valence != 4).
     std::optional<VertexWeights> centreWeights;
+    // Set: the experimental rule below instead (its valence must be `valence`).
+    std::optional<ExtendedShapeRule> extendedRule;
 };
 
 struct ValenceReport {
@@ -234,5 +252,46 @@ ShapeCandidate optimizeShapeWeights(Index valence, VertexWeights valence3, const
 
 // The paper's spectral gap at valence n (lambda1 - |lambda3| of the 3-ring two-step matrix).
 double paperSpectralGap(Index valence);
+
+// ---------------------------------------------------------------------------------------
+// Beyond the vertex weights (experimental, analysis only: no evaluator carries these rules).
+// ExtendedShapeRule (above, before ValenceOptions) says what these rules are.
+
+// The two-step matrix with `rule` applied to the paper's per-level table while composing it
+// in double (the rows' supports do not change, so the same neighbourhood is invariant).
+LocalMatrix psTwoStepMatrix(const ExtendedShapeRule& rule, int rings = 3);
+
+// `psSteps` P-S steps of a closed all-quad mesh with `rule` applied, in double: the finest
+// level's faces and positions.
+struct ExtendedRefinement {
+    Faces faces;
+    std::vector<double> positions;
+};
+ExtendedRefinement refineExtended(const Mesh& mesh, int psSteps, const ExtendedShapeRule& rule);
+
+struct ExtendedCandidate {
+    ExtendedShapeRule rule;
+    double lambda1 = 0, spectralGap = 0;   // of the 3-ring two-step matrix
+    double volumeRatio = 0;           // the cube, P-S psSteps against CC psSteps / 2
+    double hausdorff = 0;             // the same, relative to CC's box diagonal (measured ones only)
+    double normalSpreadDegrees = 0;   // analyzeValence's bumpy neighbourhood, 10 two-step levels
+    double cornerSpreadDegrees = 0;   // at the cube's corners after cornerSteps P-S steps
+    bool c1 = false;                  // analyzeValence: C1 conditions and injective map
+};
+
+struct TradeoffOptions {
+    int psSteps = 4, cornerSteps = 10, samplesPerEdge = 2;
+    std::vector<double> faceCorners, neighbourCentres;  // alpha and beta values to search
+    int centreSteps = 50;   // c in steps of 1 / centreSteps in [0, 1)
+    int shareSteps = 4;     // the diagonals' share of 1 - c in steps of 1 / shareSteps
+};
+
+// Everything above for one rule of valence 3: analyzeValence's checks and the cube.
+ExtendedCandidate measureExtendedRule(const ExtendedShapeRule& rule, const TradeoffOptions& options = {});
+
+// At valence 3, on the cube: for each least gap, the candidate (c, d, e, alpha, beta) on the
+// grid of `options` with the smallest |volume ratio - 1| among those whose spectral gap is at
+// least that and that pass analyzeValence's C1 checks. Throws std::runtime_error if none.
+std::vector<ExtendedCandidate> shapeTradeoff(std::span<const double> leastGaps, const TradeoffOptions& options);
 
 }  // namespace psub
