@@ -550,16 +550,21 @@ void Viewer::startDrawing(Slot& slot, int index) {
 }
 
 // Waits for the frame in flight and presents it; when the swapchain had changed it is drawn
-// again at the new size first. Returns false when there was none.
+// again at the new size first. Returns false when there was none, or when it could not be
+// presented after a few tries (the window keeps changing size): the frame is dropped.
 bool Viewer::finishDrawing() {
     if (!inFlight) return false;
     Slot& slot = *std::exchange(inFlight, nullptr);
     if (drawThread) drawThread->wait();
-    for (;;) {
+    for (int attempt = 0;; ++attempt) {
         const Clock::time_point start = Clock::now();
         const bool presented = presenter->present(slot.frame, slot.shown.capture);
         presentMs = slot.shown.stage[Present] = msBetween(start, Clock::now());
         if (presented) break;
+        if (attempt == 7) {
+            dropRenderers();
+            return false;
+        }
         // The presenter re-created the swapchain (resize): nothing else is in flight.
         dropRenderers();
         chooseRenderers(slot, slot.shown.scheme, slot.shown.wireframe);
