@@ -1,8 +1,11 @@
 // psub view: the interactive window. Per frame: script events and window input, pose the
 // control points (wall-clock time, looping), evaluate P-S (CPU or Vulkan) and/or OpenSubdiv's
-// Catmull-Clark (its stencil table, CPU), draw each with psub::Renderer into the frame picture, HUD and help as
-// captions, present through psub::Presenter. Tables for a new level, boundary or rules are
-// built by std::async while the old ones keep drawing.
+// Catmull-Clark (its stencil table, CPU), draw each with psub::Renderer into the frame picture,
+// HUD and help as captions, present through psub::Presenter. Two frames in flight: the main
+// thread evaluates frame n+1 into one slot while a draw thread draws frame n from the other.
+// Renderers (and so their pipelines) are made once per size, layout and wireframe mode and
+// kept. Tables for a new level, boundary or rules are built by std::async while the old ones
+// keep drawing.
 #include "view.h"
 
 #include "options.h"
@@ -27,12 +30,18 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <condition_variable>
+#include <exception>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <sstream>
+#include <thread>
+#include <utility>
 #include <vector>
 
 namespace psub::cli {
@@ -205,14 +214,99 @@ struct Orbit {
 enum Stage { Deform, Upload, Evaluate, Normals, Render, Readback, Present, kStageCount };
 constexpr std::array<const char*, kStageCount> kStageNames = {"deform", "upload", "evaluate", "normals",
                                                               "render", "readback", "present"};
+constexpr int kMaxFramesInFlight = 2;
 
-// What one scheme draws: its faces, renderer, positions and normals.
+// What one scheme draws in a frame slot: its renderers, one per layout (whole window or
+// side by side) and wireframe mode, each made on first use and kept until the size or the
+// tables change (so `s` and `w` create nothing once each mode was shown); the positions and
+// normals evaluated for the slot's frame (CPU) and its picture.
 struct Side {
     const SurfaceTable* surface = nullptr;
-    std::unique_ptr<Renderer> renderer;
+    std::map<int, std::unique_ptr<Renderer>> renderers;  // key: wireframe + 3 * side-by-side
+    Renderer* renderer = nullptr;                         // the one drawing the slot's frame
     std::vector<float> positions, normals;
     Image picture;
     std::uint32_t width = 0;
+    Camera camera;
+};
+
+// What the slot's frame shows, fixed when it is evaluated: the HUD and the log read this, not
+// the viewer's state, which the next frame's keys may already have changed.
+struct Shown {
+    int scheme = 0, wireframe = 0, levels = 0, ccLevels = 0;
+    std::uint64_t psFaces = 0, ccFaces = 0;
+    bool playing = false, help = false, capture = false;
+    Boundary boundary = Boundary::Paper;
+    Rules rules = Rules::Paper;
+    double fps = 0, previousPresentMs = 0;
+    std::string notice;
+    std::array<double, kStageCount> stage{};
+};
+
+// A frame in flight: evaluated into by the main thread, then drawn (by the draw thread when two
+// are in flight) while the main thread evaluates the next frame into the other slot. With the
+// Vulkan backend each slot has its own evaluator, so its device buffers (what the slot's P-S
+// renderers draw from) are not overwritten by the next frame's evaluation.
+struct Slot {
+    std::unique_ptr<Evaluator> evaluator;              // Vulkan: this slot's; CPU: only slot 0's
+    const VulkanEvaluator* drawnFromDevice = nullptr;  // the same, when drawn from its buffers
+    Side ps, cc;
+    std::vector<float> control;  // posed control points (the control cage is drawn from them)
+    Image frame;                 // the picture presented: the side(s), the HUD
+    Shown shown;
+};
+
+// The one thread that draws a slot while the main thread evaluates the next frame. Created
+// before the loop; exceptions thrown while drawing come out of wait().
+class DrawThread {
+public:
+    explicit DrawThread(std::function<void(Slot&)> draw) : draw_(std::move(draw)), thread_([this] { run(); }) {}
+    ~DrawThread() {
+        {
+            std::lock_guard lock(mutex_);
+            stop_ = true;
+        }
+        changed_.notify_all();
+        thread_.join();
+    }
+    void start(Slot& slot) {
+        {
+            std::lock_guard lock(mutex_);
+            job_ = &slot;
+        }
+        changed_.notify_all();
+    }
+    void wait() {
+        std::unique_lock lock(mutex_);
+        changed_.wait(lock, [this] { return job_ == nullptr; });
+        if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+    }
+
+private:
+    void run() {
+        std::unique_lock lock(mutex_);
+        for (;;) {
+            changed_.wait(lock, [this] { return stop_ || job_ != nullptr; });
+            if (stop_) return;
+            lock.unlock();
+            std::exception_ptr error;
+            try {
+                draw_(*job_);
+            } catch (...) {
+                error = std::current_exception();
+            }
+            lock.lock();
+            error_ = error, job_ = nullptr;
+            changed_.notify_all();
+        }
+    }
+    std::function<void(Slot&)> draw_;
+    std::mutex mutex_;
+    std::condition_variable changed_;
+    Slot* job_ = nullptr;
+    bool stop_ = false;
+    std::exception_ptr error_;
+    std::thread thread_;  // last: starts after the members it uses
 };
 
 long residentKiB() {
@@ -225,6 +319,8 @@ long residentKiB() {
     if (n > 0) std::sscanf(text, "%ld %ld", &pages, &resident);
     return resident * (::sysconf(_SC_PAGESIZE) / 1024);
 }
+
+void drawHud(const Shown& s, Backend backend, Image& frame);
 
 struct Viewer {
     const ViewOptions& o;
@@ -239,18 +335,16 @@ struct Viewer {
     Rules rules, wantedRules;
     Boundary boundary, wantedBoundary;
     bool playing, help = false, quit = false, framed = false;
-    std::unique_ptr<Evaluator> evaluator;  // P-S on the backend chosen once (makeEvaluator)
-    // The same evaluator when its device buffers can be drawn from (Vulkan): no read-back.
-    const VulkanEvaluator* drawnFromDevice = nullptr;
     std::unique_ptr<CpuEvaluator<float>> ccNormals;
-    Side ps, cc;
-    std::vector<float> control;
-    Image frame;
+    std::array<Slot, kMaxFramesInFlight> slots;
+    int framesInFlight = kMaxFramesInFlight;
+    std::unique_ptr<DrawThread> drawThread;  // with 2 frames in flight
+    Slot* inFlight = nullptr;                // the slot being drawn, to present
+    int inFlightIndex = 0;
+    std::uint64_t renderersCreated = 0;  // each Renderer builds its pipelines once
     Orbit orbit;
-    bool drawingDirty = true;  // renderers to re-create (level, scheme, wireframe, size)
-    double seconds = 0;        // animation time
-    std::array<double, kStageCount> stage{};
-    double fps = 0, frameMs = 0;  // frames per second over the last second; wall time of the last frame
+    double seconds = 0;  // animation time
+    double fps = 0, frameMs = 0, presentMs = 0;  // fps over the last second; wall time of the last frame
     std::string notice;  // shown in the HUD (refused level, build in progress)
     bool leftDown = false, rightDown = false;
     double cursorX = 0, cursorY = 0;
@@ -259,7 +353,7 @@ struct Viewer {
     Viewer(const ViewOptions& options, Animated& a)
         : o(options), animated(a), levels(options.levels), scheme(options.scheme), wireframe(options.wireframe),
           wantedLevels(options.levels), rules(options.rules), wantedRules(options.rules), boundary(options.boundary),
-          wantedBoundary(options.boundary), playing(!options.paused) {}
+          wantedBoundary(options.boundary), playing(!options.paused), framesInFlight(options.framesInFlight) {}
 
     bool showsPs() const { return scheme != 1; }
     bool showsCc() const { return scheme != 0; }
@@ -269,12 +363,15 @@ struct Viewer {
     void act(Action action);
     void startBuild();
     void adopt(Built b);
-    void makeRenderers();
-    void drawFrame(bool capture);
-    void evaluate();
-    void hud();
-    void frameModel();
-    void writeLog(int index);
+    void dropRenderers();
+    void chooseRenderers(Slot& slot, int slotScheme, int slotWireframe);
+    void prepare(Slot& slot, bool capture);
+    void evaluate(Slot& slot);
+    void draw(Slot& slot);
+    void startDrawing(Slot& slot, int index);
+    bool finishDrawing();
+    void frameModel(const Slot& slot);
+    void writeLog(const Slot& slot, int index);
 };
 
 // Starts building the tables the keys asked for, unless a build runs or they are drawn already.
@@ -286,6 +383,13 @@ void Viewer::startBuild() {
     });
 }
 
+// Every renderer goes (after a resize or with the tables they refer to); no frame is in flight.
+void Viewer::dropRenderers() {
+    for (Slot& slot : slots)
+        for (Side* side : {&slot.ps, &slot.cc}) side->renderers.clear(), side->renderer = nullptr;
+}
+
+// Called with no frame in flight.
 void Viewer::adopt(Built b) {
     if (!b.error.empty()) {
         notice = b.error;
@@ -294,23 +398,27 @@ void Viewer::adopt(Built b) {
         return;
     }
     notice.clear();
-    ps.renderer.reset();  // everything that refers to the old tables goes first
-    cc.renderer.reset();
-    evaluator.reset();
+    dropRenderers();  // everything that refers to the old tables goes first
+    for (Slot& slot : slots) slot.evaluator.reset(), slot.drawnFromDevice = nullptr;
     ccNormals.reset();
     built = std::make_shared<Built>(std::move(b));
     levels = built->levels, rules = built->rules, boundary = built->boundary;
     const Refinement& r = built->ps;
-    evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, context.get());
-    drawnFromDevice = dynamic_cast<const VulkanEvaluator*>(evaluator.get());
+    for (int s = 0; s < framesInFlight; ++s) {
+        Slot& slot = slots[std::size_t(s)];
+        if (s == 0 || slots[0].drawnFromDevice) {
+            slot.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, context.get());
+            slot.drawnFromDevice = dynamic_cast<const VulkanEvaluator*>(slot.evaluator.get());
+        }
+        slot.ps.surface = &built->ps.surface;
+        slot.cc.surface = &built->cc;
+        slot.ps.positions.assign(3 * std::size_t(r.perLevel.refinedCount()), 0.0f);
+        slot.ps.normals.assign(slot.ps.positions.size(), 0.0f);
+        slot.cc.positions.assign(3 * std::size_t(built->cc.vertexCount), 0.0f);
+        slot.cc.normals.assign(slot.cc.positions.size(), 0.0f);
+        slot.control.assign(3 * std::size_t(animated.mesh.faces.vertexCount), 0.0f);
+    }
     ccNormals = std::make_unique<CpuEvaluator<float>>(built->ccIdentity, built->none, built->cc, TableForm::PerLevel);
-    ps.surface = &built->ps.surface;
-    cc.surface = &built->cc;
-    ps.positions.assign(3 * std::size_t(r.perLevel.refinedCount()), 0.0f);
-    ps.normals.assign(ps.positions.size(), 0.0f);
-    cc.positions.assign(3 * std::size_t(built->cc.vertexCount), 0.0f);
-    cc.normals.assign(cc.positions.size(), 0.0f);
-    drawingDirty = true;
 }
 
 void Viewer::act(Action action) {
@@ -319,8 +427,8 @@ void Viewer::act(Action action) {
     case Action::LevelDown: wantedLevels = std::max(0, wantedLevels - 1); break;
     case Action::Boundary: wantedBoundary = wantedBoundary == Boundary::Paper ? Boundary::Smooth : Boundary::Paper; break;
     case Action::Rules: wantedRules = wantedRules == Rules::Paper ? Rules::Robust : Rules::Paper; break;
-    case Action::Scheme: scheme = (scheme + 1) % 3, drawingDirty = true; break;
-    case Action::Wireframe: wireframe = (wireframe + 1) % 3, drawingDirty = true; break;
+    case Action::Scheme: scheme = (scheme + 1) % 3; break;
+    case Action::Wireframe: wireframe = (wireframe + 1) % 3; break;
     case Action::Play: playing = !playing; break;
     case Action::Help: help = !help; break;
     case Action::Frame: framed = false; break;
@@ -328,40 +436,57 @@ void Viewer::act(Action action) {
     }
 }
 
-// Renderers for the sides shown, at the swapchain's size (halves side by side).
-void Viewer::makeRenderers() {
+// The slot's renderers for the sides shown, at the swapchain's size (halves side by side):
+// cached ones, or made now (the first time a layout and wireframe is shown at this size), and
+// the slot's picture sizes.
+void Viewer::chooseRenderers(Slot& slot, int slotScheme, int slotWireframe) {
     const auto [width, height] = presenter->extent();
     const Faces& cage = animated.mesh.faces;
     const Polygons cagePolygons{cage.vertexCount, cage.offsets, cage.verts};
-    ps.renderer.reset();
-    cc.renderer.reset();
     RenderOptions ro;
-    ro.height = height, ro.samples = o.samples, ro.wireframe = Wireframe(wireframe);
-    const std::uint32_t left = scheme == 2 ? std::max(1u, width / 2) : width;
-    if (showsPs()) {
-        ro.width = ps.width = left;
-        ps.renderer = drawnFromDevice ? std::make_unique<Renderer>(*context, *drawnFromDevice, ro, cagePolygons)
-                                      : std::make_unique<Renderer>(*context, polygonsOf(*ps.surface), ro, cagePolygons);
+    ro.height = height, ro.samples = o.samples, ro.wireframe = Wireframe(slotWireframe);
+    const std::uint32_t left = slotScheme == 2 ? std::max(1u, width / 2) : width;
+    const int key = slotWireframe + 3 * (slotScheme == 2);
+    slot.ps.renderer = slot.cc.renderer = nullptr;
+    if (slotScheme != 1) {
+        std::unique_ptr<Renderer>& r = slot.ps.renderers[key];
+        ro.width = slot.ps.width = left;
+        if (!r) {
+            r = slot.drawnFromDevice ? std::make_unique<Renderer>(*context, *slot.drawnFromDevice, ro, cagePolygons)
+                                     : std::make_unique<Renderer>(*context, polygonsOf(*slot.ps.surface), ro, cagePolygons);
+            ++renderersCreated;
+        }
+        slot.ps.renderer = r.get();
     }
-    if (showsCc()) {
-        ro.width = cc.width = scheme == 2 ? std::max(1u, width - left) : width;
-        cc.renderer = std::make_unique<Renderer>(*context, polygonsOf(*cc.surface), ro, cagePolygons);
+    if (slotScheme != 0) {
+        std::unique_ptr<Renderer>& r = slot.cc.renderers[key];
+        ro.width = slot.cc.width = slotScheme == 2 ? std::max(1u, width - left) : width;
+        if (!r) {
+            r = std::make_unique<Renderer>(*context, polygonsOf(*slot.cc.surface), ro, cagePolygons);
+            ++renderersCreated;
+        }
+        slot.cc.renderer = r.get();
     }
-    frame = filledImage(width, height, ro.background);
-    drawingDirty = false;
+    if (slot.frame.width != width || slot.frame.height != height) slot.frame = filledImage(width, height, ro.background);
+    for (Side* side : {&slot.ps, &slot.cc})
+        side->camera = orbit.camera(float(std::max(1u, side->width)) / float(height));
 }
 
-// Poses the control points and evaluates what is shown; stage times into `stage`.
-void Viewer::evaluate() {
+// Poses the control points and evaluates what is shown into the slot; stage times into its
+// Shown. The main thread's work of a frame (it overlaps the drawing of the frame before).
+void Viewer::evaluate(Slot& slot) {
+    std::array<double, kStageCount>& stage = slot.shown.stage;
     const Clock::time_point start = Clock::now();
-    animated.pose(std::fmod(seconds, animated.period), control);
+    animated.pose(std::fmod(seconds, animated.period), slot.control);
     const Clock::time_point posed = Clock::now();
     stage[Deform] = msBetween(start, posed);
     if (showsPs()) {
-        // Results read back only where the host needs them: for the camera to frame them.
-        if (drawnFromDevice && framed) evaluator->evaluateKept(control, true);
-        else evaluator->evaluate(control, ps.positions, ps.normals);
-        const StageTimes times = evaluator->lastTimes();
+        // Vulkan: this slot's evaluator, so the frame in flight keeps its buffers. Results are
+        // read back only where the host needs them: for the camera to frame them.
+        Evaluator& evaluator = slot.drawnFromDevice ? *slot.evaluator : *slots[0].evaluator;
+        if (slot.drawnFromDevice && framed) evaluator.evaluateKept(slot.control, true);
+        else evaluator.evaluate(slot.control, slot.ps.positions, slot.ps.normals);
+        const StageTimes times = evaluator.lastTimes();
         stage[Upload] = times.uploadMs;
         stage[Evaluate] = times.evaluateMs;
         stage[Normals] = times.normalsMs;
@@ -369,20 +494,92 @@ void Viewer::evaluate() {
     }
     if (showsCc()) {  // OpenSubdiv on the CPU, whatever the backend
         const Clock::time_point ccStart = Clock::now();
-        built->ccStencils->evaluate(control, cc.positions);
+        built->ccStencils->evaluate(slot.control, slot.cc.positions);
         const Clock::time_point evaluated = Clock::now();
-        ccNormals->normals(cc.positions, cc.normals);
+        ccNormals->normals(slot.cc.positions, slot.cc.normals);
         stage[Evaluate] += msBetween(ccStart, evaluated);
         stage[Normals] += msBetween(evaluated, Clock::now());
     }
 }
 
+// Everything the main thread does for a frame before it is drawn; no draw of this slot is in flight.
+void Viewer::prepare(Slot& slot, bool capture) {
+    Shown& s = slot.shown;
+    s = {};
+    s.scheme = scheme, s.wireframe = wireframe, s.levels = levels, s.ccLevels = built->ccLevels;
+    s.psFaces = psFaces(), s.ccFaces = ccFaces();
+    s.playing = playing, s.help = help, s.capture = capture, s.boundary = boundary, s.rules = rules;
+    s.fps = fps, s.previousPresentMs = presentMs, s.notice = notice;
+    evaluate(slot);
+    if (!framed) frameModel(slot);
+}
+
+// The drawing of a frame (the draw thread's work with two frames in flight): each side from the
+// slot's positions (CPU, copied into its renderer's mapped vertex buffers) or the slot's
+// evaluator's device buffers (Vulkan), side by side composed, the HUD.
+void Viewer::draw(Slot& slot) {
+    const Shown& s = slot.shown;
+    for (Side* side : {&slot.ps, &slot.cc}) {
+        if (!side->renderer) continue;
+        side->renderer->setControlPositions(slot.control);
+        Image& picture = s.scheme == 2 ? side->picture : slot.frame;
+        if (side == &slot.ps && slot.drawnFromDevice) side->renderer->drawKept(side->camera, picture);
+        else side->renderer->draw(side->positions, side->normals, side->camera, picture);
+        const DrawTimes d = side->renderer->lastTimes();
+        slot.shown.stage[Upload] += d.uploadMs, slot.shown.stage[Render] += d.renderMs,
+            slot.shown.stage[Readback] += d.readbackMs;
+    }
+    if (s.scheme == 2) {  // side by side: P-S left, Catmull-Clark right
+        Image& frame = slot.frame;
+        for (std::uint32_t y = 0; y < frame.height; ++y) {
+            std::copy_n(slot.ps.picture.rgba.data() + 4ull * y * slot.ps.width, 4ull * slot.ps.width,
+                        frame.rgba.data() + 4ull * y * frame.width);
+            std::copy_n(slot.cc.picture.rgba.data() + 4ull * y * slot.cc.width, 4ull * slot.cc.width,
+                        frame.rgba.data() + 4ull * (y * frame.width + slot.ps.width));
+        }
+    }
+    if (!o.noHud) drawHud(s, o.backend, slot.frame);
+}
+
+// Called after finishDrawing(): the renderers for the slot, then its drawing starts.
+void Viewer::startDrawing(Slot& slot, int index) {
+    chooseRenderers(slot, slot.shown.scheme, slot.shown.wireframe);
+    inFlight = &slot, inFlightIndex = index;
+    if (drawThread) drawThread->start(slot);
+    else draw(slot);
+}
+
+// Waits for the frame in flight and presents it; when the swapchain had changed it is drawn
+// again at the new size first. Returns false when there was none, or when it could not be
+// presented after a few tries (the window keeps changing size): the frame is dropped.
+bool Viewer::finishDrawing() {
+    if (!inFlight) return false;
+    Slot& slot = *std::exchange(inFlight, nullptr);
+    if (drawThread) drawThread->wait();
+    for (int attempt = 0;; ++attempt) {
+        const Clock::time_point start = Clock::now();
+        const bool presented = presenter->present(slot.frame, slot.shown.capture);
+        presentMs = slot.shown.stage[Present] = msBetween(start, Clock::now());
+        if (presented) break;
+        if (attempt == 7) {
+            dropRenderers();
+            return false;
+        }
+        // The presenter re-created the swapchain (resize): nothing else is in flight.
+        dropRenderers();
+        chooseRenderers(slot, slot.shown.scheme, slot.shown.wireframe);
+        slot.shown.stage[Upload] = slot.shown.stage[Render] = slot.shown.stage[Readback] = 0;
+        draw(slot);
+    }
+    return true;
+}
+
 // frameBox of what is shown, as psub render frames it.
-void Viewer::frameModel() {
+void Viewer::frameModel(const Slot& slot) {
     Box box;
-    if (showsPs()) box.extend(ps.positions);
-    if (showsCc()) box.extend(cc.positions);
-    if (wireframe == 2) box.extend(control);
+    if (showsPs()) box.extend(slot.ps.positions);
+    if (showsCc()) box.extend(slot.cc.positions);
+    if (wireframe == 2) box.extend(slot.control);
     const auto [width, height] = presenter->extent();
     const std::uint32_t panel = scheme == 2 ? std::max(1u, width / 2) : width;
     const Camera c = frameBox(box, float(panel) / float(height));
@@ -392,53 +589,26 @@ void Viewer::frameModel() {
     framed = true;
 }
 
-void Viewer::drawFrame(bool capture) {
-    stage = {};
-    evaluate();
-    if (!framed) frameModel();
-    const std::uint32_t height = presenter->extent()[1];
-    for (Side* side : {&ps, &cc}) {
-        if (!side->renderer) continue;
-        side->renderer->setControlPositions(control);
-        const Camera camera = orbit.camera(float(side->width) / float(height));
-        Image& picture = scheme == 2 ? side->picture : frame;
-        if (side == &ps && drawnFromDevice) side->renderer->drawKept(camera, picture);
-        else side->renderer->draw(side->positions, side->normals, camera, picture);
-        const DrawTimes d = side->renderer->lastTimes();
-        stage[Upload] += d.uploadMs, stage[Render] += d.renderMs, stage[Readback] += d.readbackMs;
-    }
-    if (scheme == 2) {  // side by side: P-S left, Catmull-Clark right
-        for (std::uint32_t y = 0; y < height; ++y) {
-            std::copy_n(ps.picture.rgba.data() + 4ull * y * ps.width, 4ull * ps.width, frame.rgba.data() + 4ull * y * frame.width);
-            std::copy_n(cc.picture.rgba.data() + 4ull * y * cc.width, 4ull * cc.width,
-                        frame.rgba.data() + 4ull * (y * frame.width + ps.width));
-        }
-    }
-    if (!o.noHud) hud();
-    const Clock::time_point start = Clock::now();
-    if (!presenter->present(frame, capture)) drawingDirty = true;
-    stage[Present] = msBetween(start, Clock::now());
-}
-
-void Viewer::hud() {
+void drawHud(const Shown& s, Backend backend, Image& frame) {
     char text[512];
-    const std::string what = scheme == 0   ? "P-S " + std::to_string(levels) + " steps"
-                             : scheme == 1 ? "Catmull-Clark " + std::to_string(built->ccLevels) + " levels"
-                                           : "P-S " + std::to_string(levels) + " | Catmull-Clark " + std::to_string(built->ccLevels);
-    const std::uint64_t faces = (showsPs() ? psFaces() : 0) + (showsCc() ? ccFaces() : 0);
+    const std::string what = s.scheme == 0   ? "P-S " + std::to_string(s.levels) + " steps"
+                             : s.scheme == 1 ? "Catmull-Clark " + std::to_string(s.ccLevels) + " levels"
+                                             : "P-S " + std::to_string(s.levels) + " | Catmull-Clark " + std::to_string(s.ccLevels);
+    const std::uint64_t faces = (s.scheme != 1 ? s.psFaces : 0) + (s.scheme != 0 ? s.ccFaces : 0);
+    const auto& stage = s.stage;
     std::snprintf(text, sizeof text,
                   "%s, %llu faces, %s, %.1f fps\ndeform %.2f  upload %.2f  evaluate %.2f  normals %.2f  render %.2f  "
                   "readback %.2f  present %.2f ms\n%s, wireframe %s, boundary %s, rules %s  (h: help)%s%s",
-                  what.c_str(), (unsigned long long)faces, o.backend == Backend::Vulkan ? "vulkan" : "cpu", fps,
+                  what.c_str(), (unsigned long long)faces, backend == Backend::Vulkan ? "vulkan" : "cpu", s.fps,
                   stage[Deform], stage[Upload], stage[Evaluate], stage[Normals], stage[Render], stage[Readback],
-                  stage[Present], playing ? "playing" : "paused", kWireframeNames[wireframe],
-                  boundary == Boundary::Paper ? "paper" : "smooth", rules == Rules::Paper ? "paper" : "robust",
-                  notice.empty() ? "" : "\n", notice.c_str());
+                  s.previousPresentMs, s.playing ? "playing" : "paused", kWireframeNames[s.wireframe],
+                  s.boundary == Boundary::Paper ? "paper" : "smooth", s.rules == Rules::Paper ? "paper" : "robust",
+                  s.notice.empty() ? "" : "\n", s.notice.c_str());
     const int scale = frame.width >= 1200 ? 2 : 1;  // the stage line fits 1280 pixels at scale 2
     const auto size = textSize(text, scale);
     fillRect(frame, 4, 4, size[0] + 14, size[1] + 12, {240, 240, 240, 255});
     drawText(frame, 10, 10, text, scale, {20, 20, 20, 255});
-    if (!help) return;
+    if (!s.help) return;
     const char* keys =
         "mouse: left drag orbit, right drag pan, wheel zoom\n"
         "+ / -  level up / down        s  P-S, Catmull-Clark, both\n"
@@ -451,23 +621,25 @@ void Viewer::hud() {
     drawText(frame, x, y, keys, scale, {20, 20, 20, 255});
 }
 
-void Viewer::writeLog(int index) {
+void Viewer::writeLog(const Slot& slot, int index) {
     if (!log) return;
+    const Shown& s = slot.shown;
     const auto [width, height] = presenter->extent();
+    const bool ps = s.scheme != 1, cc = s.scheme != 0;
     std::fprintf(log,
                  "{\"frame\": %d, \"level\": %d, \"cc_level\": %d, \"scheme\": \"%s\", \"refined_faces\": %llu, "
                  "\"ps_faces\": %llu, \"cc_faces\": %llu, \"drawn\": [%s%s%s], \"width\": %u, \"height\": %u, "
                  "\"wireframe\": \"%s\", \"playing\": %s, \"boundary\": \"%s\", \"rules\": \"%s\", \"rss_kib\": %ld, "
-                 "\"validation_messages\": %llu, \"frame_ms\": %.4f, \"stages\": {",
-                 index, levels, built->ccLevels, kSchemeNames[scheme],
-                 (unsigned long long)(showsPs() ? psFaces() : ccFaces()), (unsigned long long)psFaces(),
-                 (unsigned long long)ccFaces(), showsPs() ? "\"ps\"" : "", scheme == 2 ? ", " : "",
-                 showsCc() ? "\"cc\"" : "", width, height, kWireframeNames[wireframe],
-                 playing ? "true" : "false", boundary == Boundary::Paper ? "paper" : "smooth",
-                 rules == Rules::Paper ? "paper" : "robust", residentKiB(),
-                 (unsigned long long)context->validationMessageCount(), frameMs);
-    for (int s = 0; s < kStageCount; ++s)
-        std::fprintf(log, "%s\"%s_ms\": %.4f", s ? ", " : "", kStageNames[std::size_t(s)], stage[std::size_t(s)]);
+                 "\"validation_messages\": %llu, \"frames_in_flight\": %d, \"slot\": %d, \"renderers_created\": %llu, "
+                 "\"frame_ms\": %.4f, \"stages\": {",
+                 index, s.levels, s.ccLevels, kSchemeNames[s.scheme], (unsigned long long)(ps ? s.psFaces : s.ccFaces),
+                 (unsigned long long)s.psFaces, (unsigned long long)s.ccFaces, ps ? "\"ps\"" : "", ps && cc ? ", " : "",
+                 cc ? "\"cc\"" : "", width, height, kWireframeNames[s.wireframe], s.playing ? "true" : "false",
+                 s.boundary == Boundary::Paper ? "paper" : "smooth", s.rules == Rules::Paper ? "paper" : "robust",
+                 residentKiB(), (unsigned long long)context->validationMessageCount(), framesInFlight,
+                 int(&slot - slots.data()), (unsigned long long)renderersCreated, frameMs);
+    for (int i = 0; i < kStageCount; ++i)
+        std::fprintf(log, "%s\"%s_ms\": %.4f", i ? ", " : "", kStageNames[std::size_t(i)], s.stage[std::size_t(i)]);
     std::fprintf(log, "}}\n");
 }
 
@@ -537,10 +709,31 @@ GLFWwindow* openWindow(const ViewOptions& o) {
 int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
     const ViewOptions& o = v.o;
     std::size_t next = 0;
-    Clock::time_point last = Clock::now(), fpsStart = last, firstDrawn = last;
+    Clock::time_point last = Clock::now(), fpsStart = last, firstDrawn = last, advanced = last;
     int fpsFrames = 0, drawn = 0;
+    // Presents and logs the frame in flight, if any.
+    auto finish = [&] {
+        const Slot* slot = v.inFlight;
+        const int index = v.inFlightIndex;
+        if (!v.finishDrawing()) return;
+        const Clock::time_point now = Clock::now();
+        v.frameMs = msBetween(last, now);
+        v.writeLog(*slot, index);
+        if (++drawn == 1) firstDrawn = now;
+        last = now;
+        ++fpsFrames;
+        if (msBetween(fpsStart, now) >= 1000) {
+            v.fps = 1000.0 * fpsFrames / msBetween(fpsStart, now);
+            char title[160];
+            std::snprintf(title, sizeof title, "psub view: %.1f fps", v.fps);
+            glfwSetWindowTitle(v.window, title);
+            fpsStart = now, fpsFrames = 0;
+        }
+    };
     for (int index = 0; !v.quit && !glfwWindowShouldClose(v.window); ++index) {
         glfwPollEvents();
+        for (std::size_t e = next; e < script.size() && script[e].frame == index; ++e)
+            if (script[e].kind == ScriptEvent::Resize) finish();  // the frame before is shown at the old size
         for (; next < script.size() && script[next].frame == index; ++next) {
             const ScriptEvent& e = script[next];
             if (e.kind == ScriptEvent::Key) v.act(e.action);
@@ -559,43 +752,37 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
             }
         }
         if (v.quit) break;
-        if (v.pending.valid() && v.pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) v.adopt(v.pending.get());
+        if (v.pending.valid() && v.pending.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+            finish();  // the tables it draws from go
+            v.adopt(v.pending.get());
+        }
         v.startBuild();
         int w = 0, h = 0;
         glfwGetFramebufferSize(v.window, &w, &h);
         if (w == 0 || h == 0) {  // minimised: nothing to draw
+            finish();
             glfwWaitEventsTimeout(0.1);
             --index;
             continue;
         }
         const auto extent = v.presenter->extent();
         if (std::uint32_t(w) != extent[0] || std::uint32_t(h) != extent[1]) {
+            finish();
             v.presenter->recreate();
-            v.drawingDirty = true;
-        }
-        if (v.drawingDirty) v.makeRenderers();
-        const bool lastFrame = o.frames > 0 && index + 1 == o.frames;
-        v.drawFrame(lastFrame && !o.screenshot.empty());
-        if (v.drawingDirty) {  // the swapchain changed under the present: draw this frame again
-            --index;
-            continue;
+            v.dropRenderers();
         }
         const Clock::time_point now = Clock::now();
-        v.frameMs = msBetween(last, now);
-        v.writeLog(index);
-        if (++drawn == 1) firstDrawn = now;
-        if (v.playing) v.seconds += msBetween(last, now) / 1000.0;
-        last = now;
-        ++fpsFrames;
-        if (msBetween(fpsStart, now) >= 1000) {
-            v.fps = 1000.0 * fpsFrames / msBetween(fpsStart, now);
-            char title[160];
-            std::snprintf(title, sizeof title, "psub view: %.1f fps", v.fps);
-            glfwSetWindowTitle(v.window, title);
-            fpsStart = now, fpsFrames = 0;
-        }
+        if (v.playing && index > 0) v.seconds += o.step > 0 ? o.step : msBetween(advanced, now) / 1000.0;
+        advanced = now;
+        const bool lastFrame = o.frames > 0 && index + 1 == o.frames;
+        Slot& slot = v.slots[std::size_t(index % v.framesInFlight)];
+        v.prepare(slot, lastFrame && !o.screenshot.empty());  // overlaps the drawing of the frame before
+        finish();
+        v.startDrawing(slot, index);
+        if (v.framesInFlight == 1) finish();
         if (lastFrame) break;
     }
+    finish();
     if (!o.screenshot.empty()) {
         if (drawn == 0 || (o.frames > 0 && drawn < o.frames)) {
             std::fprintf(stderr, "psub: error: view: --screenshot needs --frames N and all N frames drawn\n");
@@ -604,9 +791,10 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
         writePng(o.screenshot, v.presenter->screenshot());
     }
     const double seconds = msBetween(firstDrawn, Clock::now()) / 1000.0;
-    std::printf("psub view: %d frames drawn; %.2f fps after the first frame (%d frames in %.2f s); present mode %s\n",
+    std::printf("psub view: %d frames drawn; %.2f fps after the first frame (%d frames in %.2f s); present mode %s; "
+                "%d frames in flight\n",
                 drawn, drawn > 1 && seconds > 0 ? (drawn - 1) / seconds : 0.0, drawn - 1, seconds,
-                v.presenter->presentMode());
+                v.presenter->presentMode(), v.framesInFlight);
     return 0;
 }
 
@@ -626,11 +814,11 @@ int view(const ViewOptions& o, Animated& animated, const std::vector<ScriptEvent
     glfwSetMouseButtonCallback(window, onButton);
     glfwSetCursorPosCallback(window, onCursor);
     glfwSetScrollCallback(window, onScroll);
-    v.control.resize(3 * std::size_t(animated.mesh.faces.vertexCount));
     // The first tables are built here, before the loop (later ones off it).
     Built first = buildTables(animated, o.levels, o.rules, o.boundary);
     if (!first.error.empty()) throw InputError(o.input + ": --levels " + first.error);
     v.adopt(std::move(first));
+    if (v.framesInFlight > 1) v.drawThread = std::make_unique<DrawThread>([&v](Slot& slot) { v.draw(slot); });
     struct CloseLog {
         std::FILE*& f;
         ~CloseLog() {
@@ -653,11 +841,16 @@ int view(const ViewOptions& o, Animated& animated, const std::vector<ScriptEvent
         std::fprintf(stderr, "psub: error: view: %s\n", e.what());
         status = 1;
     }
+    if (v.drawThread && v.inFlight) {  // left by an error: its drawing ends before the renderers go
+        try {
+            v.drawThread->wait();
+        } catch (...) {
+        }
+    }
     if (v.pending.valid()) v.pending.wait();
     glfwSetWindowUserPointer(window, nullptr);
     return status;
 }
-
 }  // namespace
 
 CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
@@ -681,6 +874,14 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
     vi->add_flag("--no-vsync", o.noVsync, "present as fast as possible (to measure)");
     vi->add_flag("--no-hud", o.noHud, "hide the overlay of timings and state");
     vi->add_flag("--paused", o.paused, "start paused (space plays)");
+    vi->add_option("--frames-in-flight", o.framesInFlight,
+                   "2: frame n+1 is evaluated while frame n is drawn (a draw thread); 1: one after the other")
+        ->check(CLI::Range(1, kMaxFramesInFlight))
+        ->default_val(2);
+    vi->add_option("--step", o.step,
+                   "advance the animation by this many seconds per frame instead of by the wall clock "
+                   "(reproducible scripts)")
+        ->check(CLI::Range(0.0, 1e6));
     CLI::Option* frames =
         vi->add_option("--frames", o.frames, "exit with status 0 after this many frames")->check(CLI::Range(1, 100000000));
     vi->add_option("--script", o.script, "replay key and mouse events at frame numbers (format below)");
@@ -689,7 +890,8 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
         ->needs(frames);
     vi->add_option("--log", o.log,
                    "write one JSON line per frame: frame, level, cc_level, scheme, refined_faces, ps_faces, cc_faces, "
-                   "drawn, width, height, wireframe, playing, boundary, rules, rss_kib, validation_messages, frame_ms "
+                   "drawn, width, height, wireframe, playing, boundary, rules, rss_kib, validation_messages, frames_in_flight, "
+                   "slot (the frame slot drawn), renderers_created (so far; each builds its pipelines once), frame_ms "
                    "(wall time since the last frame), "
                    "stages.{deform,upload,evaluate,normals,render,readback,present}_ms");
     vi->footer(

@@ -29,6 +29,8 @@ struct ViewOptions {
     bool noHud = false;
     bool paused = false;
     int frames = 0;             // > 0: exit 0 after this many frames
+    int framesInFlight = 2;     // 2: frame n+1 is evaluated while frame n is drawn; 1: one after the other
+    double step = 0;            // > 0: the animation advances this many seconds per frame (not wall clock)
     std::string script;         // events at frame numbers
     std::string screenshot;     // PNG of the last frame's swapchain image
     std::string log;            // one JSON line per frame

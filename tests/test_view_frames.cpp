@@ -1,0 +1,180 @@
+// psub view's frame loop, run as a program under Xvfb (xvfb-run -a) with lavapipe and the
+// validation layer on (any message fails): two frames in flight (the log's slot alternates, and
+// the picture equals the one drawn with one frame in flight, with the CPU and the Vulkan
+// evaluator), and `s` / `w` reuse the renderers (and their pipelines) made the first time each
+// mode was shown; only a resize makes new ones. Without Xvfb or a device these fail, unless
+// PSUB_ALLOW_NO_VULKAN=1.
+#include "psub/image.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace psub {
+namespace {
+
+namespace fs = std::filesystem;
+
+using test::contains;
+
+std::string temp(const std::string& name) {
+    return testing::TempDir() + "/psub-view-frames-" + std::to_string(::getpid()) + "-" + name;
+}
+
+std::string q(const std::string& path) { return test::quoted(path); }
+
+// `psub view ARGS` under a fresh Xvfb server with the validation layer on.
+test::PsubRun view(const std::string& args) {
+    test::PsubHow how;
+    how.environment = std::string(test::kNoLeakCheck) + " PSUB_VULKAN_VALIDATION=1";
+    how.prefix = "xvfb-run -a -s '-screen 0 1600x1200x24'";
+    return test::runPsub("view " + args, how);
+}
+
+// Why psub view cannot run here (asked once): empty when it can.
+const std::string& windowProblem() {
+    static const std::string problem = [] {
+        if (std::system("command -v xvfb-run >/dev/null 2>&1") != 0) return std::string("xvfb-run is not installed");
+        const test::PsubRun r = view(q(test::dataPath("cube.obj")) + " --levels 1 --frames 1");
+        return r.status == 0 ? std::string() : "psub view failed: " + r.err;
+    }();
+    return problem;
+}
+
+class ViewFrames : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (windowProblem().empty()) return;
+        if (test::noVulkanAllowed()) GTEST_SKIP() << "no window (allowed by PSUB_ALLOW_NO_VULKAN=1): " << windowProblem();
+        FAIL() << "no window: " << windowProblem() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
+    }
+};
+
+void expectClean(const test::PsubRun& r) {
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(contains(r.err, "alidation")) << r.err;
+}
+
+std::string script(const std::string& name, const std::string& text) {
+    const std::string path = temp(name);
+    std::ofstream(path) << text;
+    return path;
+}
+
+// The number after "key": in one JSON line.
+double field(const std::string& line, const std::string& key) {
+    const std::size_t at = line.find("\"" + key + "\": ");
+    if (at == std::string::npos) {
+        ADD_FAILURE() << "no " << key << " in " << line;
+        return -1;
+    }
+    return std::strtod(line.c_str() + at + key.size() + 4, nullptr);
+}
+
+std::vector<std::string> logLines(const std::string& path) {
+    std::ifstream in(path);
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    return lines;
+}
+
+// The screenshot tolerance of psub view's tests: mean absolute difference <= 2/255 per channel,
+// at most 1% of pixels off by more than 16/255 in some channel.
+bool closeEnough(const Image& a, const Image& b, std::string& why) {
+    if (a.width != b.width || a.height != b.height || a.rgba.size() != b.rgba.size()) {
+        why = "sizes differ";
+        return false;
+    }
+    double sum[3] = {0, 0, 0};
+    std::size_t off = 0;
+    for (std::size_t i = 0; i < a.rgba.size(); i += 4) {
+        bool far = false;
+        for (std::size_t c = 0; c < 3; ++c) {
+            const int d = std::abs(int(a.rgba[i + c]) - int(b.rgba[i + c]));
+            sum[c] += d;
+            far = far || d > 16;
+        }
+        off += far;
+    }
+    const double pixels = double(a.width) * a.height;
+    why = "mean differences " + std::to_string(sum[0] / pixels) + ", " + std::to_string(sum[1] / pixels) + ", " +
+          std::to_string(sum[2] / pixels) + "; " + std::to_string(off) + " pixels far off";
+    return sum[0] / pixels <= 2 && sum[1] / pixels <= 2 && sum[2] / pixels <= 2 && double(off) <= 0.01 * pixels;
+}
+
+class FramesInFlight : public ViewFrames, public ::testing::WithParamInterface<const char*> {};
+
+// The animation advances a fixed step per frame (--step), so frame 9 is the same pose in every
+// run; the camera moves at frame 3. With two frames in flight the slots alternate, and frame 9's
+// picture is the one drawn one frame after the other; frame 8's differs from it (so a frame
+// drawn from the wrong slot would show).
+TEST_P(FramesInFlight, SlotsAlternateAndThePictureIsTheOneAtATimeOne) {
+    const std::string backend = GetParam();
+    const std::string base = q(test::dataPath("spot_control_mesh.obj")) + " --levels 2 --anim twist --step 0.07 --size 320x240 "
+                             "--no-hud --backend " + backend + " --script " + q(script("fif.txt", "3 drag left 30 -10\n"));
+    const std::string two = temp("two.png"), one = temp("one.png"), earlier = temp("earlier.png");
+    const std::string twoLog = temp("two.jsonl"), oneLog = temp("one.jsonl");
+    expectClean(view(base + " --frames 10 --screenshot " + q(two) + " --log " + q(twoLog)));
+    expectClean(view(base + " --frames 10 --frames-in-flight 1 --screenshot " + q(one) + " --log " + q(oneLog)));
+    expectClean(view(base + " --frames 9 --screenshot " + q(earlier)));
+
+    const std::vector<std::string> twoLines = logLines(twoLog), oneLines = logLines(oneLog);
+    ASSERT_EQ(twoLines.size(), 10u);
+    ASSERT_EQ(oneLines.size(), 10u);
+    for (std::size_t i = 0; i < twoLines.size(); ++i) {
+        EXPECT_EQ(field(twoLines[i], "frame"), double(i));
+        EXPECT_EQ(field(twoLines[i], "frames_in_flight"), 2) << twoLines[i];
+        EXPECT_EQ(field(twoLines[i], "slot"), double(i % 2)) << twoLines[i];
+        EXPECT_EQ(field(twoLines[i], "validation_messages"), 0);
+        EXPECT_EQ(field(oneLines[i], "frames_in_flight"), 1) << oneLines[i];
+        EXPECT_EQ(field(oneLines[i], "slot"), 0) << oneLines[i];
+    }
+    const Image a = readPng(two), b = readPng(one), c = readPng(earlier);
+    std::string why;
+    EXPECT_TRUE(closeEnough(a, b, why)) << backend << ": two in flight vs one: " << why;
+    EXPECT_FALSE(closeEnough(a, c, why)) << backend << ": frame 9 and frame 8 should differ: " << why;
+    for (const std::string& path : {two, one, earlier, twoLog, oneLog}) fs::remove(path);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, FramesInFlight, ::testing::Values("cpu", "vulkan"));
+
+// Four rounds of s s s w w w (and a frame without keys, so each round starts in the other
+// slot): after two rounds every mode has drawn in both slots, and rounds three and four create
+// no renderer (each renderer makes its pipelines once, in its constructor). A resize then makes
+// new ones at the new size.
+TEST_F(ViewFrames, SchemeAndWireframeKeysReuseTheirRenderers) {
+    std::string keys;
+    for (int round = 0; round < 4; ++round) {
+        const int start = 1 + 7 * round;
+        for (int k = 0; k < 3; ++k) keys += std::to_string(start + k) + " key s\n";
+        for (int k = 3; k < 6; ++k) keys += std::to_string(start + k) + " key w\n";
+    }
+    keys += "30 resize 360 260\n";
+    const std::string log = temp("keys.jsonl");
+    expectClean(view(q(test::dataPath("cube.obj")) + " --levels 2 --size 320x240 --frames 33 --script " +
+                     q(script("keys.txt", keys)) + " --log " + q(log)));
+    const std::vector<std::string> lines = logLines(log);
+    ASSERT_EQ(lines.size(), 33u);
+    EXPECT_TRUE(contains(lines[1], "\"scheme\": \"cc\"")) << lines[1];
+    EXPECT_TRUE(contains(lines[2], "\"scheme\": \"both\"")) << lines[2];
+    EXPECT_TRUE(contains(lines[5], "\"wireframe\": \"control\"")) << lines[5];
+    EXPECT_TRUE(contains(lines[23], "\"scheme\": \"both\"")) << lines[23];
+    const double afterTwoRounds = field(lines[14], "renderers_created");
+    EXPECT_GE(afterTwoRounds, 2 * 6) << "ps: 3 wireframes + side by side, cc: alone + side by side, per slot";
+    EXPECT_EQ(field(lines[28], "renderers_created"), afterTwoRounds) << "rounds three and four made renderers";
+    EXPECT_EQ(field(lines[29], "width"), 320);
+    EXPECT_EQ(field(lines[30], "width"), 360);
+    EXPECT_GT(field(lines[32], "renderers_created"), afterTwoRounds) << "a resize makes renderers at the new size";
+    for (const std::string& line : lines) EXPECT_EQ(field(line, "validation_messages"), 0);
+    fs::remove(log);
+}
+
+}  // namespace
+}  // namespace psub
