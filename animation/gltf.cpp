@@ -764,6 +764,7 @@ GltfImage readImage(const Context& cx, const ImageBytes& images, int index, cons
                               : image.uri.starts_with("data:") ? std::string("its data URI")
                                                                : "uri '" + image.uri + "'";
     GltfImage result;
+    result.index = std::size_t(index);
     if (std::size_t(index) < images.size()) result.bytes = images[std::size_t(index)];
     if (result.bytes.empty()) cx.fail(element, where + ": missing, unreadable or empty");
     result.mimeType = imageType(result.bytes);
