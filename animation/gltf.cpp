@@ -764,6 +764,7 @@ GltfImage readImage(const Context& cx, const ImageBytes& images, int index, cons
                               : image.uri.starts_with("data:") ? std::string("its data URI")
                                                                : "uri '" + image.uri + "'";
     GltfImage result;
+    result.index = std::size_t(index);
     if (std::size_t(index) < images.size()) result.bytes = images[std::size_t(index)];
     if (result.bytes.empty()) cx.fail(element, where + ": missing, unreadable or empty");
     result.mimeType = imageType(result.bytes);
@@ -1096,6 +1097,72 @@ void precheck(const std::string& path, std::string_view json, const std::string&
     }
 }
 
+// Early glTF 2.0 exporters (COLLADA2GLTF) wrote skins the glTF 1.0 way: "jointNames" matched
+// to the nodes' "jointName" instead of "joints" (required), which tinygltf refuses without a
+// message. Such skins get their "joints" from those names (a warning says so); the patched JSON
+// text, or nullopt when nothing needed it. InputError naming the skin when a name matches no
+// node, or a skin has neither.
+std::optional<std::string> legacyJointsResolved(const std::string& path, std::string_view json,
+                                                std::vector<std::string>& warnings) {
+    nlohmann::json root = nlohmann::json::parse(json, nullptr, false);
+    if (!root.is_object() || !root.contains("skins") || !root["skins"].is_array()) return std::nullopt;
+    bool patched = false;
+    nlohmann::json& skins = root["skins"];
+    for (std::size_t s = 0; s < skins.size(); ++s) {
+        nlohmann::json& skin = skins[s];
+        if (!skin.is_object() || skin.contains("joints")) continue;
+        const std::string element = path + ": " + named("skin", s);
+        const auto names = skin.find("jointNames");
+        if (names == skin.end() || !names->is_array())
+            throw InputError(element + ": has no \"joints\" (required by glTF 2.0)");
+        nlohmann::json joints = nlohmann::json::array();
+        for (const nlohmann::json& name : *names) {
+            const nlohmann::json* nodes = root.contains("nodes") ? &root["nodes"] : nullptr;
+            std::int64_t found = -1;
+            for (std::size_t n = 0; nodes && nodes->is_array() && n < nodes->size(); ++n) {
+                const nlohmann::json& node = (*nodes)[n];
+                if (node.is_object() && node.contains("jointName") && node["jointName"] == name) {
+                    if (found >= 0)
+                        throw InputError(element + ": legacy joint name " + name.dump() + " names nodes " +
+                                         std::to_string(found) + " and " + std::to_string(n));
+                    found = std::int64_t(n);
+                }
+            }
+            if (found < 0)
+                throw InputError(element + ": has no \"joints\" (required by glTF 2.0), and its legacy "
+                                 "\"jointNames\" entry " + name.dump() + " matches no node's \"jointName\"");
+            joints.push_back(found);
+        }
+        skin["joints"] = std::move(joints);
+        patched = true;
+        std::string warning = element + ": no \"joints\"; took them from the legacy \"jointNames\" (glTF 1.0 style)";
+        if (const auto bind = skin.find("bindShapeMatrix"); bind != skin.end()) {
+            const nlohmann::json identity = {1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0};
+            if (*bind != identity) warning += "; its legacy \"bindShapeMatrix\" is not the identity and is ignored";
+        }
+        warnings.push_back(warning);
+    }
+    if (!patched) return std::nullopt;
+    return root.dump();
+}
+
+// `bytes` of a .glb with its JSON chunk replaced by `json` (padded with spaces).
+std::vector<unsigned char> withJsonChunk(const std::vector<unsigned char>& bytes, std::string json) {
+    while (json.size() % 4) json += ' ';
+    const std::size_t oldEnd = std::min<std::size_t>(20 + std::size_t(load<std::uint32_t>(bytes.data() + 12)), bytes.size());
+    std::vector<unsigned char> out(bytes.begin(), bytes.begin() + 12);
+    const auto word = [&](std::uint32_t v) {
+        for (int k = 0; k < 4; ++k) out.push_back(static_cast<unsigned char>(v >> (8 * k)));
+    };
+    word(std::uint32_t(json.size()));
+    out.insert(out.end(), bytes.begin() + 16, bytes.begin() + 20);  // the chunk type
+    out.insert(out.end(), json.begin(), json.end());
+    out.insert(out.end(), bytes.begin() + std::ptrdiff_t(oldEnd), bytes.end());
+    const std::uint32_t total = std::uint32_t(out.size());
+    for (int k = 0; k < 4; ++k) out[std::size_t(8 + k)] = static_cast<unsigned char>(total >> (8 * k));
+    return out;
+}
+
 // tinygltf's file access, made safe: no shell expansion of names, and only regular files are
 // read (opened without blocking, so a FIFO that appears after the checks cannot hang us).
 bool fileExists(const std::string& name, void*) {
@@ -1139,7 +1206,7 @@ bool writeNothing(std::string* error, const std::string&, const std::vector<unsi
 }
 
 tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& warnings, ImageBytes& images) {
-    const std::vector<unsigned char> bytes = readBytes(path);
+    std::vector<unsigned char> bytes = readBytes(path);
     if (bytes.empty()) throw InputError(path + ": the file is empty");
     if (bytes.size() > UINT_MAX) throw InputError(path + ": the file is larger than 4 GiB");
     tinygltf::TinyGLTF loader;
@@ -1148,9 +1215,11 @@ tinygltf::Model parseFile(const std::string& path, std::vector<std::string>& war
     tinygltf::Model model;
     std::string error, warning;
     const std::string baseDir = std::filesystem::path(path).parent_path().string();
-    const unsigned length = unsigned(bytes.size());
     const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
     precheck(path, jsonText(path, bytes, binary), baseDir);
+    if (std::optional<std::string> json = legacyJointsResolved(path, jsonText(path, bytes, binary), warnings))
+        bytes = binary ? withJsonChunk(bytes, std::move(*json)) : std::vector<unsigned char>(json->begin(), json->end());
+    const unsigned length = unsigned(bytes.size());
     const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &error, &warning, bytes.data(), length, baseDir)
                            : loader.LoadASCIIFromString(&model, &error, &warning,
                                                         reinterpret_cast<const char*>(bytes.data()), length, baseDir);

@@ -142,15 +142,27 @@ void writeSurface(const SubdivideOptions& o, const Surface& s, const Loaded& loa
     const std::string& what = s.what;
     if (!isGltfPath(o.output) && !s.uv)
         return writeOutput(o.output, formatObj(s.faces, s.positions, header(o.input, what)));
+    if (!isGltfPath(o.output) && isGltfPath(o.input) && s.uv->width == 2) {  // glTF's v down as OBJ's v up
+        std::vector<double> objUv = s.uvValues;
+        for (std::size_t i = 1; i < objUv.size(); i += 2) objUv[i] = 1.0 - objUv[i];
+        return writeOutput(o.output, formatObjWithUv(s.positions, objUv, s.uv->width, s.uv->faceOffsets,
+                                                     s.uv->faceVerts, s.uv->faceValues, header(o.input, what)));
+    }
     if (!isGltfPath(o.output))
         return writeOutput(o.output, formatObjWithUv(s.positions, s.uvValues, s.uv->width, s.uv->faceOffsets,
                                                      s.uv->faceVerts, s.uv->faceValues, header(o.input, what)));
     GltfSurface surface{s.positions, s.normals, s.faces.offsets, s.faces.verts, {}, {}};
+    std::vector<double> gltfUv;  // an OBJ's vt (v up) as glTF's TEXCOORD_0 (v down): v -> 1 - v
     if (s.uv) {
         surface.faceOffsets = s.uv->faceOffsets;
         surface.faceVerts = s.uv->faceVerts;
         surface.faceValues = s.uv->faceValues;
         surface.uvValues = s.uvValues;
+        if (!isGltfPath(o.input) && s.uv->width == 2) {
+            gltfUv = s.uvValues;
+            for (std::size_t i = 1; i < gltfUv.size(); i += 2) gltfUv[i] = 1.0 - gltfUv[i];
+            surface.uvValues = gltfUv;
+        }
     }
     const bool binary = lowerExtension(o.output) == ".glb";
     if (loaded.material && loaded.material->baseColorTexture && !s.uv)
@@ -238,7 +250,21 @@ int subdivideCC(const SubdivideOptions& o, const Loaded& loaded) {
     const CatmarkLevel& finest = levels.back();
     const std::string what = "Catmull-Clark (OpenSubdiv), " + std::to_string(o.levels) + " levels";
     requireFinite(finest.positions, o.input, "refined");
-    writeSurface(o, Surface{finest.faces, finest.positions, {}, nullptr, {}, what}, loaded);
+    Surface surface{finest.faces, finest.positions, {}, nullptr, {}, what};
+    // Level 0 is the input itself: its UVs go out corner for corner (a lossless level-0 path).
+    FaceVaryingTable inputUv;
+    const Mesh& mesh = loaded.mesh;
+    if (o.levels == 0 && !mesh.uv.empty() && finest.faces.offsets == mesh.faces.offsets &&
+        finest.faces.verts == mesh.faces.verts) {
+        inputUv.width = mesh.uv.width;
+        inputUv.faceOffsets = mesh.faces.offsets;
+        inputUv.faceVerts = mesh.faces.verts;
+        inputUv.faceValues = mesh.uv.corners;
+        surface.uv = &inputUv;
+        surface.uvValues = mesh.uv.values;
+        surface.what += ", texture coordinates as given";
+    }
+    writeSurface(o, surface, loaded);
     std::fprintf(summaryStream(o.output), "%s: %u vertices, %u faces (%s) in %.1f ms\n", o.output.c_str(),
                 finest.faces.vertexCount, finest.faces.faceCount(), what.c_str(), msSince(start));
     return 0;

@@ -191,8 +191,10 @@ struct Playback {
     std::unique_ptr<Renderer> renderer;
     Camera camera;
     Image image;
-    Image textureImage;  // --texture, read before anything is refined or written
+    Image textureImage;  // --texture or the glTF material's, read before anything is refined or written
+    std::array<float, 4> textureFactor{1.0f, 1.0f, 1.0f, 1.0f};
 #endif
+    bool textured = false;  // frames are drawn with textureImage
     std::optional<Verifier> verifier;
     std::string device;
     TableForm form = TableForm::PerLevel;  // the CPU evaluator's; Tiled writes drawing order
@@ -319,10 +321,10 @@ double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& co
 // finest points come mostly from the fallback it is slower; docs/tiled.md).
 void chooseForm(Playback& p) {
     const Refinement& r = p.refinement;
-    if (!p.o.texture.empty()) {
+    if (p.textured) {
         // Textured faces index the canonical order; the tiled form writes its drawing order.
         if (p.o.form == kFormTiled)
-            throw InputError(p.o.input + ": --form tiled cannot draw --texture (the tiled form writes its drawing order; textured faces index the canonical one)");
+            throw InputError(p.o.input + ": --form tiled cannot draw a texture (the tiled form writes its drawing order; textured faces index the canonical one)");
         p.form = p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
         p.formReason = "textured drawing uses the canonical order";
         return;
@@ -387,7 +389,7 @@ int prepare(Playback& p) {
     // A Vulkan evaluator's results are drawn where they are, with no read-back (unless --verify
     // reads them anyway); other backends' are uploaded by the renderer.
     const auto* onDevice = dynamic_cast<const VulkanEvaluator*>(p.evaluator.get());
-    p.drawsKept = p.rendering() && onDevice && !p.verifier && o.texture.empty();
+    p.drawsKept = p.rendering() && onDevice && !p.verifier && !p.textured;
 #endif
     p.readBack = p.verifier || (p.rendering() && !p.drawsKept) || p.evaluator->resultsOnHost();
 #if PSUB_HAVE_RENDER
@@ -396,10 +398,11 @@ int prepare(Playback& p) {
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
         const Faces& cage = p.animated.mesh.faces;
         const Polygons control{cage.vertexCount, cage.offsets, cage.verts};
-        if (!o.texture.empty()) {
+        if (p.textured) {
             // UVs do not move with the animation: refined once, here. Their faces index the
             // canonical order (chooseForm keeps the tiled form away from textured drawing).
             TextureData texture = textureData(std::move(p.textureImage), p.animated.mesh, r.uv);
+            texture.factor = p.textureFactor;
             p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro, control,
                                                     texture.surfaceTexture());
         } else {
@@ -524,7 +527,8 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addChoice(pl, "--wireframe", o.wireframe, kPlayWireframe, "with --render: none, refined or control", "none");
     addSamples(pl, o.samples);
     pl->add_option("--texture", o.texture,
-                   "with --render: base-colour image (.png or .jpg) sampled with the mesh's refined UVs");
+                   "with --render: base-colour image (.png or .jpg) sampled with the mesh's refined UVs "
+                   "(default: a glTF material's base colour texture, when there is one)");
     pl->add_flag("--verify", o.verify,
                  "check every frame against refining its control points from scratch with the rule oracle "
                  "(slow; outside the timings)");
@@ -539,7 +543,8 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
                "  psub play data/cow.obj --levels 4 --backend vulkan --json\n"
                "  psub play data/cube.obj --levels 6 --frames 60 --render frames/ --size 640x360\n"
                "  psub play data/spot_control_mesh_uv.obj --levels 4 --frames 60 --render frames/ --texture data/spot_texture.png\n"
-               "  psub play data/two_bone_cylinder.glb --anim bend --levels 4 --verify");
+               "  psub play data/two_bone_cylinder.glb --anim bend --levels 4 --verify\n"
+               "  psub play data/CesiumMan.glb --levels 3 --frames 60 --render frames/ --size 480x480");
     return pl;
 }
 
@@ -554,6 +559,13 @@ int runPlay(const PlayOptions& o) {
     if (!o.texture.empty()) {
         p.textureImage = readTextureImage(o.texture);
         requireUvs(animated.mesh);
+        p.textured = true;
+    } else if (p.rendering() && animated.asset) {
+        if (std::optional<MaterialTexture> material = materialTexture(animated.mesh, animated.asset->material)) {
+            p.textureImage = std::move(material->image);
+            p.textureFactor = material->factor;
+            p.textured = true;
+        }
     }
 #endif
     refineAnimated(p);

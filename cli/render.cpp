@@ -107,6 +107,31 @@ SurfaceTexture TextureData::surfaceTexture() const {
     t.faceOffsets = table->faceOffsets, t.faceVerts = table->faceVerts, t.faceValues = table->faceValues;
     t.uv = uv;
     t.image = &image;
+    t.factor = factor;
+    return t;
+}
+
+std::optional<MaterialTexture> materialTexture(const Mesh& mesh, const std::optional<GltfMaterial>& material) {
+    if (!material || !material->baseColorTexture) return std::nullopt;
+    const GltfImage& source = *material->baseColorTexture;
+    std::string image = "base colour image " + std::to_string(source.index);
+    if (!source.name.empty()) image += " '" + source.name + "'";
+    std::string owner = "material";
+    if (!material->name.empty()) owner += " '" + material->name + "'";
+    MaterialTexture t;
+    try {
+        t.image = decodeImage(std::span<const std::uint8_t>(source.bytes.data(), source.bytes.size()),
+                              mesh.source.path + ": " + owner + ": " + image);
+    } catch (const std::runtime_error& e) {
+        throw InputError(e.what());
+    }
+    if (mesh.uv.empty()) {
+        std::fprintf(stderr, "psub: warning: %s: %s: the %s is not drawn: the mesh has no TEXCOORD_0\n",
+                     mesh.source.path.c_str(), owner.c_str(), image.c_str());
+        return std::nullopt;
+    }
+    for (std::size_t k = 0; k < 4; ++k) t.factor[k] = float(material->baseColorFactor[k]);
+    t.label = "the " + image + " of " + owner;
     return t;
 }
 
@@ -152,7 +177,7 @@ double median(std::vector<double> values) {
 }
 
 int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh, const Drawable& d,
-                 const TextureData* texture) {
+                 const TextureData* texture, const std::string& textureLabel) {
     RenderOptions ro;
     ro.width = o.width, ro.height = o.height, ro.wireframe = o.wireframe, ro.samples = o.samples;
     const Polygons control{mesh.faces.vertexCount, mesh.faces.offsets, mesh.faces.verts};
@@ -176,7 +201,7 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
     // The summary goes to stderr when the PNG itself went to standard output (-o -).
     std::fprintf(o.output == "-" ? stderr : stdout, "%s: %ux%u, %u faces (%s%s), %u triangles%s on %s: render %.2f ms, readback %.2f ms%s\n",
                 o.output.c_str(), o.width, o.height, std::uint32_t(d.surface.faceOffsets.size() - 1), d.what.c_str(),
-                texture ? ("; textured with " + o.texture).c_str() : "",
+                texture ? ("; textured with " + textureLabel).c_str() : "",
                 renderer.triangleCount(),
                 renderer.lineCount() ? (" + " + std::to_string(renderer.lineCount()) + " lines").c_str() : "",
                 context.deviceName().c_str(), median(renderMs), median(readbackMs),
@@ -188,7 +213,7 @@ int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Me
 
 CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     CLI::App* re = app.add_subcommand("render", "Draw a refined mesh offscreen with Vulkan into a PNG");
-    re->add_option("input", o.input, "input mesh (.obj)")->required();
+    re->add_option("input", o.input, "input mesh (.obj, or .gltf / .glb in its static pose)")->required();
     re->add_option("-o,--output", o.output, "output image (.png), written atomically; - for standard output")->required();
     addInteger(re, "-l,--levels", o.levels, 0, 30, "refinement steps (P-S) or levels (--scheme cc)", 4);
     addChoice(re, "--scheme", o.scheme, kSchemeNames, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
@@ -202,18 +227,21 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
               "where positions and normals are evaluated: cpu or vulkan (drawing is always Vulkan)", "cpu");
     addInteger(re, "--frames", o.frames, 1, 10000, "draw this many times and report the median render and readback times", 1);
     re->add_option("--texture", o.texture,
-                   "base-colour image (.png or .jpg) sampled with the mesh's refined UVs (OBJ vt; --scheme ps)");
+                   "base-colour image (.png or .jpg) sampled with the mesh's refined UVs (OBJ vt, glTF TEXCOORD_0; "
+                   "--scheme ps); overrides a glTF material's texture");
     re->footer("Needs a Vulkan device (Mesa's lavapipe will do; no display). The camera looks from the front,\n"
                "a bit right and above, and frames what is drawn (the surface, and the cage with\n"
                "--wireframe control).\n"
                "Textures: --texture IMAGE colours the surface with IMAGE (PNG or JPEG, mip-mapped, repeated\n"
                "outside [0, 1]) at the mesh's UVs, refined with the positions; each face keeps the UVs of its\n"
                "own island, so seams do not smear. A mesh without UVs is refused; an OBJ with UVs and no\n"
-               "--texture is drawn in one colour.\n"
+               "--texture is drawn in one colour. A glTF whose material has a base colour texture (PNG or\n"
+               "JPEG, embedded or external) is drawn with it and its factor, unless --texture is given.\n"
                "Examples:\n  psub render data/cube.obj -o cube.png --levels 4\n"
                "  psub render data/spot_control_mesh.obj -o spot.png --levels 4 --wireframe control --size 800x800\n"
                "  psub render data/cow.obj -o cow_cc.png --levels 2 --scheme cc --wireframe refined\n"
-               "  psub render data/spot_control_mesh_uv.obj -o spot.png --levels 6 --texture data/spot_texture.png");
+               "  psub render data/spot_control_mesh_uv.obj -o spot.png --levels 6 --texture data/spot_texture.png\n"
+               "  psub render data/CesiumMan.glb -o cesium.png --levels 3 --size 480x480");
     return re;
 }
 
@@ -222,22 +250,35 @@ int runRender(const RenderCommandOptions& o) {
         std::fprintf(stderr, "psub render: --texture applies to --scheme ps only\n");
         return 2;
     }
-    CheckedMesh checked;
-    const Mesh mesh = loadChecked(o.input, checked);
+    const Loaded loaded = load(o.input);  // OBJ, or a glTF cage in its static pose
+    const Mesh& mesh = loaded.mesh;
+    const CheckedMesh& checked = loaded.checked;
     checkCoordinateRange(mesh, Precision::Float);
     guardFaces(mesh, checked.connectivity, o);
     Image image;
+    std::array<float, 4> factor{1.0f, 1.0f, 1.0f, 1.0f};
+    std::string textureLabel;
     if (!o.texture.empty()) {
         image = readTextureImage(o.texture);
         requireUvs(mesh);
+        textureLabel = o.texture;
+    } else if (o.scheme == Scheme::PS) {
+        if (std::optional<MaterialTexture> material = materialTexture(mesh, loaded.material)) {
+            image = std::move(material->image);
+            factor = material->factor;
+            textureLabel = material->label;
+        }
     }
     try {
         VulkanContext context;
         const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels, o.rules)
                                                   : drawableCC(context, o.backend, mesh, o.levels);
         std::optional<TextureData> texture;
-        if (!o.texture.empty()) texture = textureData(std::move(image), mesh, d.uv);
-        return drawAndWrite(context, o, mesh, d, texture ? &*texture : nullptr);
+        if (!textureLabel.empty()) {
+            texture = textureData(std::move(image), mesh, d.uv);
+            texture->factor = factor;
+        }
+        return drawAndWrite(context, o, mesh, d, texture ? &*texture : nullptr, textureLabel);
     } catch (const VulkanError& e) {
         std::fprintf(stderr, "psub: error: render: %s\n", e.what());
     } catch (const InputError&) {

@@ -6,7 +6,9 @@
 
 #include "psub/render.h"
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,7 @@ struct RenderCommandOptions {
     int frames = 1;                  // draws timed (the last one is written)
     std::uint32_t samples = 4;       // MSAA samples per pixel
     std::string texture;             // base-colour image (.png, .jpg) sampled with the mesh's UVs
+                                     // (overrides a glTF material's texture)
 };
 
 // A refined surface with positions and normals, ready to draw.
@@ -44,9 +47,22 @@ struct TextureData {
     Image image;
     std::vector<float> uv;  // 2 floats per refined UV value, glTF's convention (v down)
     const FaceVaryingTable* table = nullptr;
+    std::array<float, 4> factor{1.0f, 1.0f, 1.0f, 1.0f};  // glTF's baseColorFactor
 
     SurfaceTexture surfaceTexture() const;
 };
+
+// A glTF material's base colour texture, decoded, with its factor.
+struct MaterialTexture {
+    Image image;
+    std::array<float, 4> factor{1.0f, 1.0f, 1.0f, 1.0f};
+    std::string label;  // "the base colour image 0 'I' of material 'M'", for summaries
+};
+
+// The base colour texture of `material` (the glTF material of `mesh`), decoded; nullopt when
+// there is none, or (after a warning on stderr) when `mesh` has no UVs to sample it with.
+// InputError naming the mesh's file, the material and the image when the image is broken.
+std::optional<MaterialTexture> materialTexture(const Mesh& mesh, const std::optional<GltfMaterial>& material);
 
 // Reads the image at `imagePath` (PNG or JPEG). InputError naming the file when it is missing
 // or broken.

@@ -132,6 +132,7 @@ struct GltfImage {
     std::string mimeType;             // "image/png" or "image/jpeg"
     std::vector<unsigned char> bytes;
     std::string name;                 // the image's name, else its file name; may be empty
+    std::size_t index = 0;            // its index in the file's images
 };
 
 // glTF sampler codes (e.g. 10497 REPEAT, 33071 CLAMP_TO_EDGE, 9729 LINEAR); -1: not given.
