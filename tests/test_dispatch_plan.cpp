@@ -29,7 +29,7 @@ TEST(DispatchPlan, ChunksAreTheLongestThatFit) {
     const BindingLimits limits{1024, 16, 1u << 20};
     const auto chunks = splitRows(
         200, limits, [&](std::uint64_t a, std::uint64_t b) { return limits.fits(16 * (b - a)); }, "t");
-    ASSERT_EQ(chunks.size(), 4u);
+    ASSERT_EQ(chunks.size(), 4u);  // ceil(200 / 63): 63 + 63 + 63 + 11
     std::uint64_t next = 0;
     for (const auto& [a, b] : chunks) {
         EXPECT_EQ(a, next);
@@ -74,11 +74,11 @@ TEST(DispatchPlan, WorkgroupGridCoversTheRowsWithinTheXLimit) {
     EXPECT_EQ(workgroupsFor(0, 64, 65535).x, 0u);
     EXPECT_EQ(workgroupsFor(0, 64, 65535).y, 0u);
     const WorkgroupGrid small = workgroupsFor(65, 64, 65535);
-    EXPECT_EQ(small.x, 2u);
+    EXPECT_EQ(small.x, 2u);  // ceil(65 / 64)
     EXPECT_EQ(small.y, 1u);
     const WorkgroupGrid wide = workgroupsFor(64ull * 70000, 64, 65535);  // 70000 groups
     EXPECT_EQ(wide.x, 65535u);
-    EXPECT_EQ(wide.y, 2u);
+    EXPECT_EQ(wide.y, 2u);  // ceil(70000 / 65535)
     EXPECT_GE(std::uint64_t(wide.x) * wide.y * 64, 64ull * 70000);
 }
 

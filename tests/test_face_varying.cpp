@@ -270,6 +270,7 @@ TEST(FaceVaryingObj, ReadsVtAndCornerIndices) {
     EXPECT_EQ(mesh.uv.width, 2u);
     EXPECT_EQ(mesh.uv.values, (std::vector<double>{0.5, 0.25, 1, 0, 1, 1, 0, 0}));
     EXPECT_EQ(mesh.uv.corners, (std::vector<Index>{0, 1, 2, 3}));
+    // The four vt statements are lines 5 to 8 (after four v lines); vt 4's "0" has v = 0.
     EXPECT_EQ(mesh.uv.valueLine, (std::vector<std::uint32_t>{5, 6, 7, 8}));
 }
 
@@ -307,6 +308,7 @@ TEST(FaceVaryingObj, VtIndicesWithoutAnyVtStatementKeepNoChannel) {
 TEST(FaceVaryingObj, BadVtIsAnErrorNamingFileAndLine) {
     const std::string head = "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n";
     const auto error = [&](const std::string& tail) { return inputErrorOf([&] { parseObj(head + tail, "in.obj"); }); };
+    // `head` is 6 lines with 3 vt: the tail is line 7, and a vt there is texture coordinate 4.
     EXPECT_NE(error("f 1/1 2/2 3/4\n").find("in.obj:7: face 1: texture-coordinate index 4 is out of range (the file has 3"), std::string::npos);
     EXPECT_NE(error("f 1/1 2/2 3/0\n").find("in.obj:7: face 1: texture-coordinate index 0"), std::string::npos);
     EXPECT_NE(error("f 1/1 2/2 3/-4\n").find("in.obj:7: face 1: relative texture-coordinate index -4"), std::string::npos);
@@ -322,6 +324,8 @@ TEST(FaceVaryingObj, BadVtIsAnErrorNamingFileAndLine) {
 TEST(FaceVaryingObj, CheckFaceVaryingValidatesInMemoryMeshes) {
     Mesh mesh = withUv(test::makeMesh({0, 0, 0, 1, 0, 0, 1, 1, 0}, {{0, 1, 2}}), {0, 0, 1, 0, 1, 1}, {{0, 1, 2}});
     EXPECT_NO_THROW(checkMesh(mesh));
+    // Messages count from 1: corner value 3 is index 4 of 3 values; values[3] is the second
+    // value's v; in `shared` the second value is named at vertices 1 and 3 (0-based), i.e. 2 and 4.
     Mesh outOfRange = mesh;
     outOfRange.uv.corners[2] = 3;
     EXPECT_NE(inputErrorOf([&] { checkMesh(outOfRange); }).find("face 1: texture-coordinate index 4 is out of range (3"), std::string::npos);
@@ -347,6 +351,7 @@ TEST(FaceVaryingObj, AValueNamedAtTwoVerticesIsCopied) {
     EXPECT_NO_THROW(checkMesh(mesh));
     const std::vector<Index> corners{0, 1, 2, 0, 2, 3};
     EXPECT_EQ(mesh.uv.corners, corners);
+    // The copy (value 3) is vt 2 = (1, 0), read on line 6.
     EXPECT_EQ(mesh.uv.values[6], 1.0);
     EXPECT_EQ(mesh.uv.values[7], 0.0);
     ASSERT_EQ(mesh.uv.valueLine.size(), 4u);
@@ -392,6 +397,9 @@ TEST(FaceVarying, AffineUvsFollowTheRefinedPositions) {
             for (int levels : {1, 2, 3, 4, 5}) {
                 const Mesh mesh = affineGrid(triangles);
                 const Refined r = refineWithUv(mesh, levels, preprocess, UvLinear::Boundaries);
+                // Tolerance 1e-12: coordinates and UVs are at most about 5, so it is some 2000
+                // units of 2^-53 * 5 = 5.6e-16, room for rounding over up to 5 steps of averaging
+                // (exact arithmetic gives 0).
                 ASSERT_EQ(r.r.uv.valueCount(), r.r.surface.vertexCount);
                 for (std::size_t v = 0; v < r.r.surface.vertexCount; ++v) {
                     double u, w;
@@ -416,6 +424,8 @@ TEST(FaceVarying, EveryCaseEveryLevelNoSmearAndRulePath) {
                     expectNoSmear(c.mesh, r.r.uv, what);
                     const std::vector<double> expected = rulePathUv(c.mesh, levels, preprocess, linear);
                     ASSERT_EQ(expected.size(), r.uv.size()) << what;
+                    // Tolerance 1e-12: the same sums in another order (tables against the rules),
+                    // UVs of size up to about 11 (the cube's islands), over up to 4 steps.
                     for (std::size_t i = 0; i < expected.size(); ++i) ASSERT_NEAR(r.uv[i], expected[i], 1e-12) << what << " value " << i / 2;
                     const CheckedMesh checked = checkMesh(c.mesh);
                     const Hierarchy h = refineTopology(c.mesh.faces, checked.connectivity, r.r.preprocessed, levels);
@@ -441,6 +451,8 @@ TEST(FaceVarying, SeamsSplitFacesAndNoFaceSpansTheCylinderSeam) {
                 lo = std::min(lo, r.uv[2 * r.r.uv.faceValues[c]]);
                 hi = std::max(hi, r.uv[2 * r.r.uv.faceValues[c]]);
             }
+            // Bound 0.5: a column of the cylinder is 1/8 wide in u; a face smeared across the
+            // seam would reach from near 0 to near 1.
             ASSERT_LT(hi - lo, 0.5) << "levels " << levels << " face " << f;
         }
     }
@@ -485,6 +497,8 @@ TEST(FaceVarying, HandComputedSeamStep) {
     EXPECT_EQ(std::vector<std::uint32_t>(one.r.uv.faceVerts.begin() + 3, one.r.uv.faceVerts.begin() + 9),
               (std::vector<std::uint32_t>{1, 4, 6, 4, 1, 7}));
     const Refined two = refineWithUv(mesh, 2, Preprocess::Never, UvLinear::Boundaries);
+    // Step 2 as derived above; [7,4,9]'s seam point is (7 + 4) / 2 = ((2,1) + (2,0)) / 2 = (2,0.5).
+    // Tolerance 1e-15: sixths and halves of small numbers, a few units of 2^-53 at most.
     ASSERT_EQ(two.r.uv.valueCount(), 10u + 8u);  // 10 values + 8 face-varying faces (7 faces, one split)
     EXPECT_NEAR(two.uv[2 * 8], 0.5, 1e-15);
     EXPECT_NEAR(two.uv[2 * 8 + 1], 0.5, 1e-15);

@@ -40,7 +40,8 @@ protected:
     ScratchDir scratch_;
 };
 
-// Values no integer option takes.
+// Values no integer option takes. 4294967297 = 2^32 + 1 (1 if wrapped to 32 bits); the
+// 23-digit one overflows even 64 bits.
 const std::vector<std::string> kBadIntegers = {"-5", "4294967297", "99999999999999999999999", "1.5", "nan", "inf",
                                                "5x", "0x10", " 3", "", "1e3", "+", "--3"};
 
@@ -87,6 +88,7 @@ TEST_F(HostileOptions, EveryIntegerOptionRefusesWhatIsNotAnIntegerInRange) {
 TEST_F(HostileOptions, LevelsOutOfRangeNameTheRange) {
     const PsubRun r = psub("stats " + kCube + " --levels 31");
     EXPECT_EQ(r.status, 2);
+    // 30: kMaxLevels in cli/main.cpp.
     EXPECT_TRUE(contains(oneLine(r), "--levels: expected a whole number in 0..30")) << r.err;
 }
 
@@ -100,6 +102,7 @@ TEST_F(HostileOptions, LeadingZerosAreDecimalNotOctal) {
 }
 
 TEST_F(HostileOptions, ValenceListsAreDecimalAndRangeChecked) {
+    // Valences run from 2 to 64 (cli/analyze.cpp): 1 and 65 are just outside.
     for (const char* value : {"99999999999999999999", "1", "65", "-3", "3,,4", "3..2", "0x10", "3.0", ""})
         expectUsageError("analyze", "--valence", value);
     const PsubRun r = psub("analyze --valence 0016,003 --rules paper --json");
@@ -108,6 +111,7 @@ TEST_F(HostileOptions, ValenceListsAreDecimalAndRangeChecked) {
 }
 
 TEST_F(HostileOptions, MaxMemoryRefusesNegativeZeroOverflowAndJunk) {
+    // 18446744073709551616 = 2^64 bytes, and 17179869184G = 2^34 GiB = 2^64 bytes too.
     for (const char* value : {"-5", "0", "18446744073709551616", "17179869184G", "5Q", "1.5G", "G", "", "nan"})
         expectUsageError("stats " + kCube, "--max-memory", value);
     expectUsageError("subdivide " + kCube + " -o " + quoted(out() / "x.obj"), "--max-memory", "-5");
@@ -115,6 +119,8 @@ TEST_F(HostileOptions, MaxMemoryRefusesNegativeZeroOverflowAndJunk) {
 
 TEST_F(HostileOptions, MaxMemoryUnitsAreBinary) {
     // 1K is 1024 bytes: far too little for 4 levels of the cube, and the message says so.
+    // (Measured with `psub stats data/cube.obj --levels 4 --max-memory 1K`, 2026-12-02: the
+    // estimate is 51.8 KiB.)
     const PsubRun r = psub("stats " + kCube + " --levels 4 --max-memory 1K");
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(oneLine(r), "(limit 1.0 KiB")) << r.err;
@@ -130,6 +136,8 @@ TEST_F(HostileOptions, RealOptionsRefuseNonFiniteNegativeAndJunk) {
 }
 
 TEST_F(HostileOptions, SizesRefuseOverflowAndJunk) {
+    // 4294967360 = 2^32 + 64 (64 if wrapped to 32 bits); 16385 is one over the 16384 limit
+    // (cli/options.h).
     for (const char* value : {"4294967360x64", "64x4294967360", "-64x64", "64x-64", "0x64", "16385x64", "64x",
                                      "x64", "64X64", "64x64x64", "+64x64", "64 x64", "1e3x64", "12by7"}) {
         expectUsageError("render " + kCube + " -o " + quoted(out() / "x.png"), "--size", value);
@@ -164,6 +172,7 @@ TEST(NumberPolicy, IntegersAreDecimalAndRangeChecked) {
     EXPECT_EQ(value, 10);
     EXPECT_EQ(cli::parseInteger("-0", 0, 30, value), "");
     EXPECT_EQ(value, 0);
+    // LLONG_MAX = 2^63 - 1 = 9223372036854775807 is taken; one more is refused.
     EXPECT_EQ(cli::parseInteger("9223372036854775807", 0, LLONG_MAX, value), "");
     EXPECT_NE(cli::parseInteger("9223372036854775808", 0, LLONG_MAX, value), "");
     EXPECT_NE(cli::parseInteger("31", 0, 30, value), "");
@@ -179,6 +188,8 @@ TEST(NumberPolicy, BytesScaleByPowersOf1024AndRefuseOverflow) {
     EXPECT_NE(cli::parseBytes("2kIB", bytes), "");
     EXPECT_EQ(cli::parseBytes("512MiB", bytes), "");
     EXPECT_EQ(bytes, 512ull << 20);
+    // 16777215 TiB = (2^24 - 1) * 2^40 = 2^64 - 2^40 bytes fits in 64 bits; 16777216 TiB = 2^64
+    // does not, nor does 18446744073709551616 = 2^64 bytes.
     EXPECT_EQ(cli::parseBytes("16777215T", bytes), "");
     EXPECT_NE(cli::parseBytes("16777216T", bytes), "");
     EXPECT_NE(cli::parseBytes("18446744073709551616", bytes), "");
@@ -190,6 +201,7 @@ TEST(NumberPolicy, RealsMustBeFinite) {
     EXPECT_EQ(value, 1000);
     EXPECT_EQ(cli::parseReal("+2.5", 1, 10000, value), "");
     EXPECT_EQ(value, 2.5);
+    // 1e400 is beyond the largest double (1.8e308).
     for (const char* bad : {"nan", "inf", "1e400", "-1e400", "1,5", "0x10"}) EXPECT_NE(cli::parseReal(bad, -1e300, 1e300, value), "") << bad;
 }
 
@@ -198,7 +210,7 @@ TEST(NumberPolicy, SizesAreTwoDecimalsInRange) {
     EXPECT_EQ(cli::parseSize("0640x0480", 1, 16384, w, h), "");
     EXPECT_EQ(w, 640u);
     EXPECT_EQ(h, 480u);
-    EXPECT_NE(cli::parseSize("4294967360x64", 1, 16384, w, h), "");
+    EXPECT_NE(cli::parseSize("4294967360x64", 1, 16384, w, h), "");  // 2^32 + 64: 64 if wrapped
 }
 
 }  // namespace

@@ -90,6 +90,7 @@ TEST(ObjReader, RelativeIndicesCountOnlyTheVerticesReadSoFar) {
 TEST(ObjReader, FaceRecordsItsSourceLineAndVertexRecordsItsLine) {
     const Mesh mesh = parse("# header\n\nv 0 0 0\nv 1 0 0\n\nv 1 1 0\nv 0 1 0\nf 1 2 3\n# x\nf 1 3 4\n");
     EXPECT_EQ(mesh.source.path, "test.obj");
+    // Lines count from 1, comment and blank lines included.
     EXPECT_EQ(mesh.source.vertexLine, (std::vector<std::uint32_t>{3, 4, 6, 7}));
     EXPECT_EQ(mesh.source.faceLine, (std::vector<std::uint32_t>{8, 10}));
 }
@@ -140,6 +141,7 @@ TEST(ObjReader, JoinsBackslashContinuationLinesOfFacesAndVertices) {
         "f 1 \\\n"
         "3 4 \\");  // a continuation on the last line ends the statement
     expectSquare(mesh);
+    // A continued statement has the line it starts on; its continuation lines still count.
     EXPECT_EQ(mesh.source.vertexLine, (std::vector<std::uint32_t>{1, 2, 5, 6}));
     EXPECT_EQ(mesh.source.faceLine, (std::vector<std::uint32_t>{7, 9}));
 }
@@ -152,6 +154,7 @@ TEST(ObjReader, ContinuedStatementKeepsLaterLineNumbersRight) {
         "v 0 1 0\n"
         "f 1 2 3\n"
         "v oops 0 0\n");
+    // The first statement spans lines 1-2, so the bad vertex is on line 6.
     EXPECT_TRUE(contains(message, "test.obj:6:")) << message;
 }
 
@@ -204,6 +207,7 @@ TEST(ObjReader, MalformedFaceEntryNamesFileAndLine) {
     for (const char* line : bad) {
         SCOPED_TRACE(line);
         const std::string message = parseError(std::string(kSquareVertices) + "f 1 2 3\n" + line);
+        // 4 vertex lines and one face before it: line 6, face 2.
         EXPECT_TRUE(contains(message, "test.obj:6:")) << message;
         EXPECT_TRUE(contains(message, "face 2")) << message;
     }
@@ -211,6 +215,7 @@ TEST(ObjReader, MalformedFaceEntryNamesFileAndLine) {
 
 TEST(ObjReader, IndexZeroIsRejectedWithItsLine) {
     const std::string message = parseError(std::string(kSquareVertices) + "\nf 1 0 3\n");
+    // 4 vertex lines and a blank line before it: line 6.
     EXPECT_TRUE(contains(message, "test.obj:6:")) << message;
     EXPECT_TRUE(contains(message, "index 0")) << message;
 }
@@ -218,6 +223,7 @@ TEST(ObjReader, IndexZeroIsRejectedWithItsLine) {
 TEST(ObjReader, IndexBeyondTheLastVertexIsRejectedWithTheFaceLine) {
     const std::string message =
         parseError(std::string("f 1 2 3\n") + kSquareVertices + "f 1 3 5\nf 1 2 4\n");
+    // Line 6 names vertex 5 of the file's 4; the forward reference on line 1 is within range.
     EXPECT_TRUE(contains(message, "test.obj:6:")) << message;
     EXPECT_TRUE(contains(message, "out of range")) << message;
     EXPECT_TRUE(contains(message, "5")) << message;
@@ -231,6 +237,7 @@ TEST(ObjReader, HugeIndexIsRejectedNotWrapped) {
 
 TEST(ObjReader, RelativeIndexBeforeTheFirstVertexIsRejectedWithItsLine) {
     const std::string message = parseError("v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n");
+    // On line 3 only 2 vertices are read: -3 points before the first.
     EXPECT_TRUE(contains(message, "test.obj:3:")) << message;
     EXPECT_TRUE(contains(message, "points before")) << message;
     EXPECT_TRUE(contains(message, "-3")) << message;
@@ -307,6 +314,7 @@ TEST(ObjReader, ReadObjRecordsThePathForErrors) {
     const Mesh mesh = readObj(file.string());
     expectSquare(mesh);
     EXPECT_EQ(mesh.source.path, file.string());
+    // 0-based face 1 is the second `f`, line 4 + 2; 0-based vertex 2 is the third `v`, line 3.
     EXPECT_EQ(describeFace(mesh.source, 1), file.string() + ":6: face 2");
     EXPECT_EQ(describeVertex(mesh.source, 2), file.string() + ":3: vertex 3");
 }
@@ -370,6 +378,7 @@ TEST(ObjTruncation, EveryPrefixOfAHandWrittenFileIsAnErrorOrAWellFormedMesh) {
 
 TEST(ObjTruncation, PrefixesOfSpotAreErrorsOrWellFormedMeshes) {
     const std::string text = readText(PSUB_DATA "/spot_control_mesh.obj");
+    // The file is 8822 bytes (wc -c): the bound checks the real mesh was read, not a stub.
     ASSERT_GT(text.size(), 8000u);
     // Every 5th prefix, and every prefix of the last 200 bytes (mid-face truncations).
     for (std::size_t length = 0; length <= text.size(); ++length) {
@@ -401,6 +410,9 @@ TEST(ObjWriter, RoundTripOfSpotKeepsPositionsAndFaces) {
     EXPECT_EQ(again.faces.offsets, original.faces.offsets);
     EXPECT_EQ(again.faces.verts, original.faces.verts);
     ASSERT_EQ(again.positions.size(), original.positions.size());
+    // Bound 1e-9 relative (9 significant digits, as in RoundTripKeepsArbitraryDoublesWithin1e9Relative):
+    // a loose bound, not a measured error. formatObj writes std::to_chars' shortest round-trip
+    // form (topology/obj.cpp), so the read-back is expected to be exact.
     for (std::size_t i = 0; i < original.positions.size(); ++i)
         EXPECT_LE(std::abs(again.positions[i] - original.positions[i]),
                   1e-9 * std::abs(original.positions[i])) << "coordinate " << i;

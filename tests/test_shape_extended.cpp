@@ -105,6 +105,8 @@ TEST(ShapeExtended, TradeoffPointAtGap012KeepsC1AndHalfTheVolume) {
     const ExtendedCandidate point = measureExtendedRule(ruleOf(3, {0.8, 0.0, 0.2 / 3}, 0.525, 0.0));
     EXPECT_TRUE(point.c1);
     EXPECT_GE(point.spectralGap, 0.12);
+    // Regression values: the least-gap 0.12 row of docs/shape-rules.md section 4's table, measured
+    // with `psub analyze --shape-tradeoff`; each tolerance is one unit in the last digit kept there.
     EXPECT_NEAR(point.spectralGap, 0.1216, 1e-4);
     EXPECT_NEAR(point.lambda1, 0.371106, 1e-6);
     EXPECT_GE(point.volumeRatio, 0.5);
@@ -115,6 +117,7 @@ TEST(ShapeExtended, TradeoffPointAtGap012KeepsC1AndHalfTheVolume) {
     // degrees at the corners) and the volume ratio of 4 steps.
     const ExtendedCandidate paper = measureExtendedRule(ruleOf(3, quadVertexWeights(3, Rules::Paper), 0.25, 0.125));
     EXPECT_TRUE(paper.c1);
+    // Regression values: the "(paper)" row of the same table (0.0325 also section 3's cube).
     EXPECT_NEAR(paper.cornerSpreadDegrees, 6.21, 0.01);
     EXPECT_NEAR(paper.volumeRatio, 0.0325, 1e-4);
 }

@@ -97,6 +97,8 @@ TEST(ImageDecode, JpegDecodesToOpaqueRgba) {
     for (std::uint32_t y = 0; y < 16; ++y)
         for (std::uint32_t x : {2u, 5u, 26u, 29u}) {
             const Rgba want = image.pixel(x, y), got = decoded.pixel(x, y);
+            // Bound 12 of 255 (under 5%): room for JPEG's loss at quality 100 (colour conversion,
+            // quantisation); red and blue stay 200 levels apart.
             EXPECT_NEAR(got.r, want.r, 12) << x << "," << y;
             EXPECT_NEAR(got.g, want.g, 12) << x << "," << y;
             EXPECT_NEAR(got.b, want.b, 12) << x << "," << y;
@@ -174,6 +176,7 @@ TEST(ImageDecode, ReadImageReadsAFile) {
 // The CPU's mip levels (used where the device cannot blit the texture's format).
 TEST(TextureMips, LevelCountAndBoxFilter) {
     EXPECT_EQ(render_detail::mipLevelCount(1, 1), 1u);
+    // floor(log2(the larger side)) + 1: 256 -> 8 + 1, 300 -> 8 + 1.
     EXPECT_EQ(render_detail::mipLevelCount(2, 1), 2u);
     EXPECT_EQ(render_detail::mipLevelCount(256, 3), 9u);
     EXPECT_EQ(render_detail::mipLevelCount(5, 300), 9u);
@@ -183,6 +186,8 @@ TEST(TextureMips, LevelCountAndBoxFilter) {
     const Image half = render_detail::halveImage(checker);
     ASSERT_EQ(half.width, 2u);
     ASSERT_EQ(half.height, 1u);
+    // Each 2 x 2 box holds two black and two white texels: (0 + 255 + 255 + 0) / 4 = 127.5, rounded
+    // up; the column's (0 + 100) / 2 = 50.
     EXPECT_EQ(half.pixel(0, 0), (Rgba{128, 128, 128, 255}));
     EXPECT_EQ(half.pixel(1, 0), (Rgba{128, 128, 128, 255}));
     const Image column = render_detail::halveImage(makeImage(1, 2, [](std::uint32_t, std::uint32_t y) {
@@ -330,11 +335,13 @@ TEST_F(Textured, MinifiedCheckerAveragesToGrey) {
     for (float y = -0.8f; y <= 0.8f; y += 0.1f)
         for (float x = -0.8f; x <= 0.8f; x += 0.1f) {
             const Rgba g = at(grey, camera, x, y), w = at(lit, camera, x, y);
+            // The checker's mean is half the white; tolerance 0.06: 8-bit rounding of both
+            // pixels and filtering at the mip levels' edges.
             EXPECT_NEAR(double(g.r) / double(w.r), 0.5, 0.06) << x << "," << y;
             EXPECT_EQ(g.r, g.g);
             ++checked;
         }
-    EXPECT_GT(checked, 200);
+    EXPECT_GT(checked, 200);  // 17 x 17 = 289 points, 16 x 16 = 256 if float steps miss 0.8
 }
 
 // A white texture times a factor is lit exactly like the flat colour of that factor; the
@@ -480,6 +487,8 @@ TEST_F(TextureCommand, ObjUvsAreRefinedAndDrawnEndToEnd) {
         }
         EXPECT_LT(lastRed, firstBlue) << "row " << y;
     }
+    // Bound 500: a floor far under each half's share of the 160 x 120 = 19200 pixels, so that
+    // both halves were drawn, not a count.
     EXPECT_GT(redPixels, 500);
     EXPECT_GT(bluePixels, 500);
 }

@@ -19,6 +19,7 @@ TEST(Topology, CubeConnectivityPairsEveryHalfedgeWithItsReverse) {
     const auto cube = load(test::dataPath("cube.obj"));
     const Connectivity& c = cube.checked.connectivity;
     const Faces& faces = cube.mesh.faces;
+    // A closed cube: 12 edges, 3 at each of the 8 corners.
     EXPECT_EQ(c.edgeCount(), 12u);
     EXPECT_EQ(c.boundaryEdgeCount, 0u);
     for (Index h = 0; h < faces.verts.size(); ++h) {
@@ -44,6 +45,8 @@ TEST(Topology, EdgesAreNumberedInFirstAppearanceOrder) {
 TEST(Topology, GridClassifiesCornersEdgesAndInteriorAsRegular) {
     const auto grid = load(test::dataPath("grid4x4.obj"));
     const Connectivity& c = grid.checked.connectivity;
+    // 4 x 4 quads: 5 x 5 = 25 vertices, 4 boundary edges a side, 25 - 3 x 3 interior = 16
+    // boundary vertices of which 4 corners (valence 2); all regular for their kind.
     EXPECT_EQ(c.boundaryEdgeCount, 16u);
     const VertexClasses classes = classifyVertices(c);
     EXPECT_EQ(classes.regular, 25u);
@@ -56,13 +59,14 @@ TEST(Topology, GridClassifiesCornersEdgesAndInteriorAsRegular) {
 
 TEST(Topology, CubeVerticesAreExtraordinary) {
     const auto cube = load(test::dataPath("cube.obj"));
-    EXPECT_EQ(classifyVertices(cube.checked.connectivity).extraordinary, 8u);
+    EXPECT_EQ(classifyVertices(cube.checked.connectivity).extraordinary, 8u);  // valence 3, not 4
 }
 
 TEST(Topology, BowtieCentreIsNonManifoldAndCountsAsExtraordinary) {
     const auto bowtie = load(test::testDataPath("bowtie.obj"));
     const Connectivity& c = bowtie.checked.connectivity;
     EXPECT_EQ(c.kind[0], VertexKind::NonManifold);
+    // Two triangles at vertex 0, two edges each; the other 4 vertices are on open edges.
     EXPECT_EQ(c.valence[0], 4u);
     const VertexClasses classes = classifyVertices(c);
     EXPECT_EQ(classes.nonManifold, 1u);

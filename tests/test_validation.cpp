@@ -127,6 +127,8 @@ TEST(ValidationBadFiles, FanOfThreeFacesOnOneEdgeIsRejected) {
     const std::string path = PSUB_TEST_DATA "/osd-shapes/catmark_fan.obj";
     const std::string message = loadError(path);
     EXPECT_TRUE(contains(message, path + ":")) << message;
+    // catmark_fan.obj: each of the edges 8-9 to 11-12 has three quads, one in the plane y = 0,
+    // one rising to y = 0.5 and one falling to y = -0.5.
     EXPECT_TRUE(contains(message, "shared by 3 faces")) << message;
     EXPECT_TRUE(contains(message, "non-manifold edge")) << message;
 }
@@ -144,6 +146,8 @@ TEST(ValidationAccepted, BowtieVertexIsNonManifoldWithAWarningNamingIt) {
     const Connectivity& c = bowtie.checked.connectivity;
     EXPECT_EQ(c.kind[0], VertexKind::NonManifold);
     EXPECT_EQ(countKind(c, VertexKind::NonManifold), 1u);
+    // bowtie.obj: two triangles meeting at vertex 1 (line 2, after the comment); the other 4
+    // vertices are on the triangles' open edges.
     EXPECT_EQ(countKind(c, VertexKind::Boundary), 4u);
     ASSERT_EQ(bowtie.warnings.size(), 1u);
     const std::string& warning = bowtie.warnings[0];
@@ -155,6 +159,9 @@ TEST(ValidationAccepted, CowVertex254IsNonManifoldWithAWarningGivingItsLine) {
     const std::string path = PSUB_DATA "/cow.obj";
     const Loaded cow = loadChecked(path);
     const Connectivity& c = cow.checked.connectivity;
+    // data/cow.obj counted: 2903 `v` and 5804 `f` lines; its first `v` is line 11, so vertex
+    // 254 (index 253) is line 264. That vertex 254 is the one non-manifold vertex is a
+    // regression value: found by checkMesh, as docs/scheme.md describes (the tail touches the body).
     EXPECT_EQ(cow.mesh.faces.vertexCount, 2903u);
     EXPECT_EQ(cow.mesh.faces.faceCount(), 5804u);
     EXPECT_EQ(c.kind[253], VertexKind::NonManifold);
@@ -193,6 +200,7 @@ TEST(ValidationAccepted, UnusedVerticesAreCountedInOneWarningNamingTheFirst) {
 TEST(ValidationAccepted, CleanClosedMeshHasNoWarnings) {
     const Loaded cube = loadChecked(PSUB_DATA "/cube.obj");
     EXPECT_TRUE(cube.warnings.empty()) << cube.warnings.front();
+    // cube.obj is closed: all its 8 vertices are interior.
     EXPECT_EQ(countKind(cube.checked.connectivity, VertexKind::Interior), 8u);
 }
 
@@ -211,6 +219,7 @@ Mesh squareMesh() {
 TEST(ValidationInMemory, ValidSquareIsAcceptedWithoutWarnings) {
     const CheckedMesh checked = checkMesh(squareMesh());
     EXPECT_TRUE(checked.warnings.empty());
+    // The square's 4 sides and the diagonal 0-2.
     EXPECT_EQ(checked.connectivity.edgeCount(), 5u);
 }
 
@@ -221,6 +230,8 @@ TEST(ValidationInMemory, DefectsNameTheElementAndNoFile) {
         std::string start;  // the message starts with the element
         std::string needle;
     };
+    // Elements are named from 1: positions[4] is vertex 2's y, positions[9] vertex 4's x,
+    // verts[4] is in face 2, verts[2] in face 1, and an added face is face 3.
     std::vector<Case> cases;
     {
         Mesh m = squareMesh();
@@ -272,6 +283,7 @@ TEST(ValidationInMemory, EmptyMeshIsRejected) {
 }
 
 TEST(ValidationInMemory, PositionsOfTheWrongSizeAreRejected) {
+    // 4 vertices need 12 coordinates: one short, one and three over, none.
     for (std::size_t size : {std::size_t(11), std::size_t(13), std::size_t(15), std::size_t(0)}) {
         SCOPED_TRACE(size);
         Mesh mesh = squareMesh();
@@ -301,6 +313,7 @@ TEST(ValidationInMemory, BuildConnectivityNamesTheLineThroughTheSource) {
     source.path = "two.obj";
     source.faceLine = {10, 20};
     const std::string message = inputErrorOf([&] { buildConnectivity(faces, source); });
+    // Face 2 (faceLine 20) runs 0->1 again: edge 1-2 counted from 1.
     EXPECT_EQ(message.rfind("two.obj:20: face 2", 0), 0u) << message;
     EXPECT_TRUE(contains(message, "edge 1-2")) << message;
     EXPECT_TRUE(contains(message, "inconsistent orientation")) << message;
@@ -354,6 +367,7 @@ TEST_F(CliTest, EveryBadFileExitsOneWithOneErrorLineAndNoOutput) {
 
 TEST_F(CliTest, FullDiskLeavesNoPartialFileAndExitsOne) {
     // A 64 KiB file-size limit stands in for a full disk: the refined cow is megabytes.
+    // (std::system runs /bin/sh; dash's ulimit -f counts 512-byte blocks: 128 x 512 B = 64 KiB.)
     const fs::path outFile = root_ / "stdout.txt", errFile = root_ / "stderr.txt";
     const std::string command = "ulimit -f 128; '" PSUB_EXE "' subdivide '" + std::string(PSUB_DATA) +
                                 "/cow.obj' -o '" + output() + "' --levels 2 >'" + outFile.string() +
@@ -401,6 +415,8 @@ TEST_F(CliTest, LevelCountBeyondMemoryExitsOneBeforeWriting) {
     ASSERT_FALSE(lines.empty());
     EXPECT_EQ(lines.back().rfind("psub: error: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(lines.back(), "cow.obj")) << r.err;
+    // Regression value: measured with `psub subdivide data/cow.obj -o out.obj --levels 30`,
+    // 2026-12-02: "about 4.6 PiB" (cli/memory_guard.cpp's estimate; faces double each step).
     EXPECT_TRUE(contains(lines.back(), "PiB")) << r.err;  // the estimate: thousands of terabytes
     EXPECT_TRUE(contains(lines.back(), "is the most that fits")) << r.err;
     EXPECT_TRUE(entriesOf(out_).empty());
@@ -409,6 +425,10 @@ TEST_F(CliTest, LevelCountBeyondMemoryExitsOneBeforeWriting) {
 TEST_F(CliTest, MaxMemoryNamesTheDeepestLevelThatFits) {
     const Result r = psub("subdivide '" PSUB_DATA "/cow.obj' -o '" + output() + "' --levels 6 --max-memory 100M");
     EXPECT_EQ(r.status, 1);
+    // Regression values: measured with `psub subdivide data/cow.obj -o out.obj --levels L
+    // --max-memory 100M` (L = 5, 6; for L = 4 a limit of 1M, to make it print), 2026-12-02:
+    // estimates 73.1 MiB (L = 4), 146.7 MiB (5), 293.9 MiB (6); 100M is 100 MiB (powers of
+    // 1024, cli/main.cpp), so 4 fits and 5 does not.
     EXPECT_TRUE(contains(r.err, "limit 100.0 MiB")) << r.err;
     EXPECT_TRUE(contains(r.err, "--levels 4 is the most that fits")) << r.err;
     EXPECT_TRUE(entriesOf(out_).empty());
