@@ -4,7 +4,8 @@
 # CPU_SECONDS of CPU time (user + system, read from /proc), JOBS targets at a time. A machine
 # that is busy elsewhere makes the run take longer, not shorter. Each target's log, with the
 # fuzzer's final statistics, goes to build-fuzz/long/TARGET.log; any crash, leak or timeout
-# fails the run and leaves the input in build-fuzz/artifacts/.
+# fails the run and leaves the input in build-fuzz/artifacts/. Never stop a fuzzer midway
+# (SIGSTOP): libFuzzer's -timeout counts wall time and reports the pause as a timeout.
 #   scripts/fuzz-cpu.sh CPU_SECONDS [JOBS] [TARGET...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +19,7 @@ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_
   -DPSUB_FUZZ=ON -DPSUB_BUILD_TESTS=OFF -DPSUB_BUILD_CLI=OFF -DPSUB_BUILD_VULKAN=OFF >/dev/null
 cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]}"
 for library in $(find build-fuzz -name 'libpsub_*.a'); do
-  nm "$library" 2>/dev/null | grep -q __sanitizer_cov || { echo "fuzz: $library has no coverage instrumentation" >&2; exit 1; }
+  nm "$library" 2>/dev/null | grep __sanitizer_cov >/dev/null || { echo "fuzz: $library has no coverage instrumentation" >&2; exit 1; }
 done
 mkdir -p build-fuzz/artifacts build-fuzz/long
 
@@ -60,12 +61,14 @@ run_one() {
   return "$status"
 }
 
+# JOBS lanes; lane i runs targets i, i + JOBS, ... one after the other.
+lane() {
+  local first=$1 failed=0 i
+  for ((i = first; i < ${#targets[@]}; i += jobs)); do run_one "${targets[i]}" || failed=1; done
+  return "$failed"
+}
+lanes=()
+for ((i = 0; i < jobs && i < ${#targets[@]}; i++)); do lane "$i" & lanes+=($!); done
 failed=0
-running=0
-for target in "${targets[@]}"; do
-  run_one "$target" &
-  running=$((running + 1))
-  if [ "$running" -ge "$jobs" ]; then wait -n || failed=1; running=$((running - 1)); fi
-done
-while [ "$running" -gt 0 ]; do wait -n || failed=1; running=$((running - 1)); done
+for pid in "${lanes[@]}"; do wait "$pid" || failed=1; done
 [ "$failed" = 0 ] && echo "fuzz: no crash, leak or timeout" || { echo "fuzz: FAILED (see build-fuzz/long/ and build-fuzz/artifacts/)"; exit 1; }

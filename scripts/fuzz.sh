@@ -14,9 +14,10 @@ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_
 cmake --build build-fuzz -j "$(nproc)" --target fuzz_obj fuzz_refine fuzz_gltf fuzz_compare
 
 # Every PSub library must carry libFuzzer's coverage instrumentation, or the fuzzers run blind
-# (they would see only the harness's own branches).
+# (they would see only the harness's own branches). grep reads all of nm's output: with -q it
+# would stop early and nm's SIGPIPE would fail the pipeline under pipefail.
 for library in $(find build-fuzz -name 'libpsub_*.a'); do
-  nm "$library" 2>/dev/null | grep -q __sanitizer_cov || { echo "fuzz: $library has no coverage instrumentation" >&2; exit 1; }
+  nm "$library" 2>/dev/null | grep __sanitizer_cov >/dev/null || { echo "fuzz: $library has no coverage instrumentation" >&2; exit 1; }
 done
 mkdir -p build-fuzz/artifacts
 for target in fuzz_obj fuzz_refine fuzz_gltf fuzz_compare; do
