@@ -1,11 +1,13 @@
 // P-S against Catmull-Clark on whole meshes: volume, area, bounding box and sampled two-sided
-// Hausdorff distance (nearest points on triangles through a uniform grid of cells).
+// Hausdorff distance (nearest points on triangles through a kd-tree of their bounding boxes).
 #include "psub/analysis.h"
 #include "psub/catmark.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
 #include <omp.h>
+#include <Eigen/Geometry>
+#include <unsupported/Eigen/BVH>
 
 #include <algorithm>
 #include <array>
@@ -65,133 +67,66 @@ double squaredDistanceToTriangle(const Vec& p, const Vec& a, const Vec& b, const
     return at(vb * denominator, vc * denominator);
 }
 
-// A uniform grid of cells over a triangle set; each triangle listed in every cell its bounding
-// box touches. About one triangle per cell.
-class TriangleGrid {
+// A triangle set in Eigen's kd-tree of bounding boxes (unsupported/Eigen/BVH: median splits
+// of the boxes' centres), searched best first for the nearest triangle. Median splits keep the
+// cost per query logarithmic however the triangles are spread: a far outlier vertex or two
+// distant clusters cost a few levels of the tree, where a uniform grid over the bounding box
+// put every other triangle into one cell and made the search quadratic.
+class TriangleTree {
 public:
-    TriangleGrid(std::span<const double> positions, std::vector<Index> triangles)
+    using Box = Eigen::AlignedBox<double, 3>;
+
+    TriangleTree(std::span<const double> positions, std::vector<Index> triangles)
         : positions_(positions), triangles_(std::move(triangles)) {
         const std::size_t count = triangles_.size() / 3;
-        lo_ = {1e300, 1e300, 1e300};
-        Vec hi{-1e300, -1e300, -1e300};
-        for (Index v : triangles_)
-            for (int a = 0; a < 3; ++a) {
-                lo_[std::size_t(a)] = std::min(lo_[std::size_t(a)], positions_[3 * v + std::size_t(a)]);
-                hi[std::size_t(a)] = std::max(hi[std::size_t(a)], positions_[3 * v + std::size_t(a)]);
-            }
-        Vec extent = sub(hi, lo_);
-        const double largest = std::max({extent[0], extent[1], extent[2], 1e-30});
-        for (double& e : extent) e = std::max(e, largest * 1e-3);
-        // Cells about twice a typical triangle's size (from the total area), so that a cell
-        // the surface crosses holds a few triangles; at most 4 cells per triangle (plus 2^20).
-        double area = 0;
+        std::vector<std::uint32_t> ids(count);
+        std::vector<Box> boxes(count);
+        double area = 0, largest = 0;
         for (std::size_t t = 0; t < count; ++t) {
-            const Vec a = point(positions_, triangles_[3 * t]), b = point(positions_, triangles_[3 * t + 1]),
-                      c = point(positions_, triangles_[3 * t + 2]);
+            const Vec a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
             const Vec n = cross(sub(b, a), sub(c, a));
             area += std::hypot(n[0], n[1], n[2]) / 2;  // hypot: no overflow in the squares
-        }
-        // Coordinates beyond the range that squares and areas fit in (compare's input limit
-        // keeps them out) would make the cell size or an index NaN: refuse them here.
-        if (!std::isfinite(area) || !std::isfinite(largest))
-            throw std::invalid_argument("surfaceDistances: coordinates too large (their squares overflow) or not finite");
-        const double maxCells = 4.0 * double(count) + double(1 << 20);
-        double cell = 2 * std::sqrt(area / double(std::max<std::size_t>(count, 1)));
-        cell = std::max({cell, std::cbrt(extent[0] * extent[1] * extent[2] / maxCells), largest / 2048});
-        for (int a = 0; a < 3; ++a) {
-            dims_[a] = int(std::clamp(std::ceil(extent[std::size_t(a)] / cell), 1.0, 2048.0));
-            size_[std::size_t(a)] = extent[std::size_t(a)] / dims_[a];
-        }
-        // Two passes: count per cell, then fill (compressed rows).
-        offsets_.assign(std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]) + 1, 0);
-        for (int pass = 0; pass < 2; ++pass) {
-            std::vector<std::uint32_t> fill;
-            if (pass == 1) {
-                for (std::size_t c = 1; c < offsets_.size(); ++c) offsets_[c] += offsets_[c - 1];
-                items_.resize(offsets_.back());
-                fill.assign(offsets_.begin(), offsets_.end() - 1);
+            for (const Vec& v : {a, b, c}) {
+                boxes[t].extend(Eigen::Vector3d(v[0], v[1], v[2]));
+                largest = std::max({largest, std::abs(v[0]), std::abs(v[1]), std::abs(v[2])});
             }
-            for (std::size_t t = 0; t < count; ++t) {
-                int from[3], to[3];
-                for (int a = 0; a < 3; ++a) {
-                    double l = 1e300, h = -1e300;
-                    for (int k = 0; k < 3; ++k) {
-                        const double x = positions_[3 * triangles_[3 * t + std::size_t(k)] + std::size_t(a)];
-                        l = std::min(l, x);
-                        h = std::max(h, x);
-                    }
-                    from[a] = cellIndex(a, l);
-                    to[a] = cellIndex(a, h);
-                }
-                for (int z = from[2]; z <= to[2]; ++z)
-                    for (int y = from[1]; y <= to[1]; ++y)
-                        for (int x = from[0]; x <= to[0]; ++x) {
-                            const std::size_t c = cellOf(x, y, z);
-                            if (pass == 0)
-                                ++offsets_[c + 1];
-                            else
-                                items_[fill[c]++] = std::uint32_t(t);
-                        }
-            }
+            ids[t] = std::uint32_t(t);
         }
+        // The point-triangle test multiplies dot products of coordinate differences (up to
+        // 2 * largest each): about 150 * largest^4 must stay finite, so coordinates beyond
+        // about 1e75 (compare's input limit, 1e60, keeps them out) would give NaN: refuse them.
+        const double square = 12 * largest * largest;
+        if (!std::isfinite(area) || !std::isfinite(square * square))
+            throw std::invalid_argument("surfaceDistances: coordinates too large (beyond 1e75 the distance test overflows) or not finite");
+        tree_.init(ids.begin(), ids.end(), boxes.begin(), boxes.end());
     }
 
-    std::size_t triangleCount() const { return triangles_.size() / 3; }
-
-    // Distance from p to the nearest triangle. `stamp` (triangleCount() entries, owned by the
-    // calling thread) and `query` (a number unique per call on that thread) skip repeats.
-    double distance(const Vec& p, std::vector<std::uint32_t>& stamp, std::uint32_t query) const {
-        const int c[3] = {cellIndex(0, p[0]), cellIndex(1, p[1]), cellIndex(2, p[2])};
-        double best = std::numeric_limits<double>::infinity();
-        const int reach = std::max({dims_[0], dims_[1], dims_[2]});
-        for (int r = 0; r <= reach; ++r) {
-            for (int z = c[2] - r; z <= c[2] + r; ++z) {
-                if (z < 0 || z >= dims_[2]) continue;
-                for (int y = c[1] - r; y <= c[1] + r; ++y) {
-                    if (y < 0 || y >= dims_[1]) continue;
-                    const bool faceZY = std::abs(z - c[2]) == r || std::abs(y - c[1]) == r;
-                    for (int x = c[0] - r; x <= c[0] + r; x += (faceZY || r == 0) ? 1 : 2 * r) {
-                        if (x < 0 || x >= dims_[0]) continue;
-                        const std::size_t cell = cellOf(x, y, z);
-                        for (std::uint64_t e = offsets_[cell]; e < offsets_[cell + 1]; ++e) {
-                            const std::uint32_t t = items_[e];
-                            if (stamp[t] == query) continue;
-                            stamp[t] = query;
-                            const Index* v = &triangles_[3 * std::size_t(t)];
-                            best = std::min(best, squaredDistanceToTriangle(p, point(positions_, v[0]),
-                                                                            point(positions_, v[1]), point(positions_, v[2])));
-                        }
-                    }
-                }
-            }
-            // Triangles not met yet lie only in cells outside the box of cells c-r..c+r.
-            double bound = std::numeric_limits<double>::infinity();
-            for (int a = 0; a < 3; ++a) {
-                const std::size_t u = std::size_t(a);
-                if (c[a] - r > 0) bound = std::min(bound, p[u] - (lo_[u] + (c[a] - r) * size_[u]));
-                if (c[a] + r < dims_[a] - 1) bound = std::min(bound, lo_[u] + (c[a] + r + 1) * size_[u] - p[u]);
-            }
-            if (bound == std::numeric_limits<double>::infinity() || best <= bound * bound) break;
-        }
-        return std::sqrt(best);
+    // Distance from p to the nearest triangle (NaN for a non-finite p).
+    double distance(const Vec& p) const {
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+            return std::numeric_limits<double>::quiet_NaN();
+        Nearest nearest{this, p, Eigen::Vector3d(p[0], p[1], p[2])};
+        return std::sqrt(Eigen::BVMinimize(tree_, nearest));
     }
 
 private:
-    int cellIndex(int axis, double x) const {
-        const double t = (x - lo_[std::size_t(axis)]) / size_[std::size_t(axis)];
-        if (!(t > 0)) return 0;  // also NaN (a non-finite sample point): never an index from it
-        return int(std::min(std::floor(t), double(dims_[axis] - 1)));
-    }
-    std::size_t cellOf(int x, int y, int z) const {
-        return (std::size_t(z) * std::size_t(dims_[1]) + std::size_t(y)) * std::size_t(dims_[0]) + std::size_t(x);
-    }
+    // Eigen's minimizer interface: squared distances to a box and to a triangle.
+    struct Nearest {
+        using Scalar = double;
+        const TriangleTree* tree;
+        Vec p;
+        Eigen::Vector3d q;
+        double minimumOnVolume(const Box& box) const { return box.squaredExteriorDistance(q); }
+        double minimumOnObject(std::uint32_t t) const {
+            return squaredDistanceToTriangle(p, tree->corner(t, 0), tree->corner(t, 1), tree->corner(t, 2));
+        }
+    };
+
+    Vec corner(std::size_t t, int k) const { return point(positions_, triangles_[3 * t + std::size_t(k)]); }
 
     std::span<const double> positions_;
     std::vector<Index> triangles_;
-    Vec lo_{}, size_{};
-    int dims_[3] = {1, 1, 1};
-    std::vector<std::uint64_t> offsets_;
-    std::vector<std::uint32_t> items_;
+    Eigen::KdBVH<double, 3, std::uint32_t> tree_;
 };
 
 }  // namespace
@@ -225,17 +160,13 @@ std::vector<double> surfaceDistances(const Faces& from, std::span<const double> 
                                      const Faces& to, std::span<const double> toPositions, int samplesPerEdge) {
     if (samplesPerEdge < 1 || from.faceCount() == 0 || to.faceCount() == 0)
         throw std::invalid_argument("surfaceDistances: samplesPerEdge >= 1 and faces on both meshes");
-    const TriangleGrid grid(toPositions, triangulate(to));
+    const TriangleTree tree(toPositions, triangulate(to));
     const std::vector<Index> sources = triangulate(from);
     const int m = samplesPerEdge;
     const std::size_t perTriangle = std::size_t(m + 1) * std::size_t(m + 2) / 2;
     const std::size_t triangles = sources.size() / 3;
     std::vector<double> out(triangles * perTriangle);
-#pragma omp parallel
-    {
-        std::vector<std::uint32_t> stamp(grid.triangleCount(), 0);
-        std::uint32_t query = 0;
-#pragma omp for schedule(dynamic, 256)
+#pragma omp parallel for schedule(dynamic, 256)
         for (std::size_t t = 0; t < triangles; ++t) {
             const Vec a = point(fromPositions, sources[3 * t]), b = point(fromPositions, sources[3 * t + 1]),
                       c = point(fromPositions, sources[3 * t + 2]);
@@ -245,11 +176,9 @@ std::vector<double> surfaceDistances(const Faces& from, std::span<const double> 
                     const double u = double(i) / m, v = double(j) / m, w = 1 - u - v;
                     const Vec p{w * a[0] + u * b[0] + v * c[0], w * a[1] + u * b[1] + v * c[1],
                                 w * a[2] + u * b[2] + v * c[2]};
-                    if (++query == 0) std::fill(stamp.begin(), stamp.end(), 0), query = 1;
-                    out[k++] = grid.distance(p, stamp, query);
+                    out[k++] = tree.distance(p);
                 }
         }
-    }
     return out;
 }
 

@@ -1,10 +1,11 @@
 // Class 1 of the hostile inputs: what crashed psub. Huge finite coordinates reaching compare's
-// distance grid, and glTF JSON nested thousands of levels deep.
+// distance search, and glTF JSON nested thousands of levels deep.
 #include "test_support.h"
 
 #include "psub/analysis.h"
 #include "psub/animation.h"
 
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -33,8 +34,8 @@ TEST_F(HostileCrash, CompareJustInsideTheDoubleLimitMeasuresFiniteNumbers) {
     EXPECT_TRUE(contains(run.out, "\"hausdorff\"")) << run.out;
 }
 
-// The library at the source: the distance grid refuses coordinates whose squares overflow and
-// never turns a NaN into a cell index.
+// The library at the source: the distance search refuses coordinates whose squares overflow and
+// never turns a NaN into an index or a distance.
 TEST(HostileCrashLibrary, DistanceGridRefusesOverflowingOrNonFiniteCoordinates) {
     Faces triangle;
     triangle.vertexCount = 3;
@@ -57,9 +58,11 @@ TEST(HostileCrashLibrary, DistanceToANaNPointIsNotAnIndexOutOfTheGrid) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const std::vector<double> from = {nan, 0, 0, 1, 0, 0, 0, 1, 0};
     const std::vector<double> distances = surfaceDistances(triangle, from, triangle, target, 2);
-    // One triangle sampled on its barycentric grid of m = 2: (m + 1)(m + 2) / 2 = 6 points,
-    // computed (NaN where the NaN corner reaches), no crash.
-    EXPECT_EQ(distances.size(), 6u);
+    // One triangle sampled on its barycentric grid of m = 2: (m + 1)(m + 2) / 2 = 6 points.
+    // Every point is w * NaN + ... (0 * NaN is NaN too), so every distance is NaN: a point
+    // without coordinates has no nearest triangle, and no crash.
+    ASSERT_EQ(distances.size(), 6u);
+    for (double d : distances) EXPECT_TRUE(std::isnan(d)) << d;
 }
 
 std::string nested(std::size_t depth) {

@@ -1,7 +1,7 @@
 // libFuzzer target: psub compare's geometry on whatever mesh parses, extreme coordinates
 // included. Within the double range policy (checkCoordinateRange) the comparison must give
-// finite measures; beyond it, the distance grid must refuse (std::invalid_argument) or
-// answer, never crash or index out of its cells.
+// finite measures; beyond it, the distance search must refuse (std::invalid_argument) or
+// answer, never crash, hang or read out of bounds.
 #include "psub/analysis.h"
 #include "psub/catmark.h"
 

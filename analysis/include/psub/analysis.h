@@ -161,8 +161,10 @@ MeshMeasures measureMesh(const Faces& faces, std::span<const double> positions);
 
 // Distances from points sampled on every face of `from` (faces fan-triangulated; each triangle
 // sampled on a barycentric grid with `samplesPerEdge` intervals, corners included) to the
-// nearest point of the triangles of `to`, found through a uniform grid of cells.
-// samplesPerEdge >= 1. Both meshes must have at least one face.
+// nearest point of the triangles of `to`, found through a kd-tree of their bounding boxes (NaN
+// for a non-finite sample point). samplesPerEdge >= 1. Both meshes must have at least one face;
+// coordinates beyond about 1e75 (the point-triangle test would overflow) throw
+// std::invalid_argument.
 std::vector<double> surfaceDistances(const Faces& from, std::span<const double> fromPositions,
                                      const Faces& to, std::span<const double> toPositions,
                                      int samplesPerEdge);
