@@ -9,7 +9,9 @@
 #include "psub/vulkan_evaluator.h"
 #endif
 
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <filesystem>
@@ -488,6 +490,18 @@ int runBench(const BenchOptions& options) {
 
 Mesh benchMesh(const std::string& name) {
     return name.rfind("torus:", 0) == 0 ? makeTorus(detail::torusSize(name)) : readObj(name);
+}
+
+double parseArgument(const char* text, const char* what, double lo, double hi, bool whole) {
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(text, &end);
+    if (end == text || *end != '\0' || errno == ERANGE || !(value >= lo && value <= hi) ||
+        (whole && std::floor(value) != value)) {
+        std::fprintf(stderr, "%s: error: %s must be %s from %g to %g, got '%s'\n", program_invocation_short_name, what, whole ? "an integer" : "a number", lo, hi, text);
+        std::exit(2);
+    }
+    return value;
 }
 
 }  // namespace psub::bench

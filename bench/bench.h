@@ -43,4 +43,8 @@ Mesh makeTorus(int n);
 // (N from 3 to 9999, else InputError), or an OBJ file.
 Mesh benchMesh(const std::string& name);
 
+// A command-line number of a benchmark program: the whole of `text` a decimal in [lo, hi] (an
+// integer when `whole`), else a one-line error naming `what` on stderr and exit status 2.
+double parseArgument(const char* text, const char* what, double lo, double hi, bool whole = true);
+
 }  // namespace psub::bench

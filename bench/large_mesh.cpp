@@ -24,8 +24,8 @@ double peakGiB() {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const psub::Index n = argc > 1 ? psub::Index(std::stoul(argv[1])) : 512;
-    const double target = argc > 2 ? std::stod(argv[2]) : 50e6;
+    const psub::Index n = argc > 1 ? psub::Index(psub::bench::parseArgument(argv[1], "N", 3, 9999)) : 512;
+    const double target = argc > 2 ? psub::bench::parseArgument(argv[2], "TARGET_FACES", 1, 1e12, false) : 50e6;
     using Clock = std::chrono::steady_clock;
     const psub::Mesh mesh = psub::bench::makeTorus(int(n));
     const psub::CheckedMesh checked = psub::checkMesh(mesh);

@@ -44,8 +44,10 @@ int main(int argc, char** argv) {
         return 2;
     }
     const std::string model = argv[1];
-    const int levels = std::stoi(argv[2]), frames = argc > 3 ? std::stoi(argv[3]) : 20,
-              rounds = argc > 4 ? std::stoi(argv[4]) : 3;
+    using psub::bench::parseArgument;
+    const int levels = int(parseArgument(argv[2], "LEVELS", 0, 30)),
+              frames = argc > 3 ? int(parseArgument(argv[3], "FRAMES", 1, 1e6)) : 20,
+              rounds = argc > 4 ? int(parseArgument(argv[4], "ROUNDS", 1, 1000)) : 3;
     psub::Mesh mesh;
     try {
         mesh = psub::bench::benchMesh(model);

@@ -111,10 +111,8 @@ TEST(EvaluateContract, TiledDrawingOrderIsTheTiledSurface) {
 
 #if PSUB_HAVE_VULKAN
 TEST(EvaluateContract, VulkanBackendMatchesTheCpuAndRefusesTiled) {
-    VulkanOptions options;
-    options.validation = Validation::On;
     std::unique_ptr<VulkanContext> context;
-    test::makeContextOrSkip(context, options);
+    test::makeContextOrSkip(context);  // validation on, synchronization validation too
     if (!context) return;
     const Case c = refined(test::dataPath("spot_control_mesh.obj"), 3);
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
