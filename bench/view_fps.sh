@@ -2,7 +2,7 @@
 # bench/view_fps.sh: frames per second of `psub view` in a 1280x720 window under Xvfb (lavapipe
 # where there is no GPU), with and without the HUD, for Spot at 23k, 187k and 750k faces and
 # the cow at 1.1M faces. Prints a markdown table: median frame ms (the log's frame_ms, frame 0
-# left out: it includes the first renderer's creation) and the fps that median gives, and the
+# left out: it includes the first present) and the fps that median gives, and the
 # stage medians of the run without the HUD. Timings only; nothing here is a test.
 #
 # Usage: bench/view_fps.sh [PSUB] [EXTRA VIEW OPTIONS...]

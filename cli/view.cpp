@@ -3,9 +3,12 @@
 // Catmull-Clark (its stencil table, CPU), draw each with psub::Renderer into the frame picture,
 // HUD and help as captions, present through psub::Presenter. Two frames in flight: the main
 // thread evaluates frame n+1 into one slot while a draw thread draws frame n from the other.
-// Renderers (and so their pipelines) are made once per size, layout and wireframe mode and
-// kept. Tables for a new level, boundary or rules are built by std::async while the old ones
-// keep drawing.
+// Every renderer a mode needs (per slot, scheme side and layout; each holds every wireframe
+// mode) is made before the first frame, again only on a resize or new tables, so s and w create
+// nothing. CPU-evaluated vertices are written straight into the chosen renderer's mapped
+// vertex buffers when that memory is host-cached ("cpu_upload": "direct"), else into host
+// arrays that the renderer copies ("copy"). Tables for a new level, boundary or rules are
+// built by std::async while the old ones keep drawing.
 #include "view.h"
 
 #include "options.h"
@@ -39,6 +42,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <sstream>
 #include <thread>
 #include <utility>
@@ -216,15 +220,16 @@ constexpr std::array<const char*, kStageCount> kStageNames = {"deform", "upload"
                                                               "render", "readback", "present"};
 constexpr int kMaxFramesInFlight = 2;
 
-// What one scheme draws in a frame slot: its renderers, one per layout (whole window or
-// side by side) and wireframe mode, each made on first use and kept until the size or the
-// tables change (so `s` and `w` create nothing once each mode was shown); the positions and
-// normals evaluated for the slot's frame (CPU) and its picture.
+// What one scheme draws in a frame slot: its renderers, one per layout (whole window, side by
+// side), each with every wireframe mode, made before the loop and kept until the size or the
+// tables change (so `s` and `w` create nothing); where the slot's frame is evaluated into (the
+// renderer's mapped buffers, or host arrays) and its picture.
 struct Side {
     const SurfaceTable* surface = nullptr;
-    std::map<int, std::unique_ptr<Renderer>> renderers;  // key: wireframe + 3 * side-by-side
-    Renderer* renderer = nullptr;                         // the one drawing the slot's frame
-    std::vector<float> positions, normals;
+    std::array<std::unique_ptr<Renderer>, 2> renderers;  // index: side by side
+    Renderer* renderer = nullptr;                        // the one drawing the slot's frame
+    std::span<float> positions, normals;                 // this frame's vertices (CPU, or read back)
+    std::vector<float> hostPositions, hostNormals;       // copy path; Vulkan: read back for framing
     Image picture;
     std::uint32_t width = 0;
     Camera camera;
@@ -342,6 +347,8 @@ struct Viewer {
     Slot* inFlight = nullptr;                // the slot being drawn, to present
     int inFlightIndex = 0;
     std::uint64_t renderersCreated = 0;  // each Renderer builds its pipelines once
+    bool direct = false;  // CPU vertices written into the renderers' mapped (host-cached) buffers
+    double renderersMs = 0;  // wall time of the last createRenderers()
     Orbit orbit;
     double seconds = 0;  // animation time
     double fps = 0, frameMs = 0, presentMs = 0;  // fps over the last second; wall time of the last frame
@@ -355,8 +362,6 @@ struct Viewer {
           wantedLevels(options.levels), rules(options.rules), wantedRules(options.rules), boundary(options.boundary),
           wantedBoundary(options.boundary), playing(!options.paused), framesInFlight(options.framesInFlight) {}
 
-    bool showsPs() const { return scheme != 1; }
-    bool showsCc() const { return scheme != 0; }
     std::uint64_t psFaces() const { return built->ps.surface.faceOffsets.size() - 1; }
     std::uint64_t ccFaces() const { return built->cc.faceOffsets.size() - 1; }
 
@@ -364,9 +369,13 @@ struct Viewer {
     void startBuild();
     void adopt(Built b);
     void dropRenderers();
-    void chooseRenderers(Slot& slot, int slotScheme, int slotWireframe);
+    void createRenderers();
+    void remakeRenderers();
+    void chooseRenderers(Slot& slot);
+    void aimCameras(Slot& slot);
     void prepare(Slot& slot, bool capture);
     void evaluate(Slot& slot);
+    void evaluateSides(Slot& slot);
     void draw(Slot& slot);
     void startDrawing(Slot& slot, int index);
     bool finishDrawing();
@@ -386,7 +395,63 @@ void Viewer::startBuild() {
 // Every renderer goes (after a resize or with the tables they refer to); no frame is in flight.
 void Viewer::dropRenderers() {
     for (Slot& slot : slots)
-        for (Side* side : {&slot.ps, &slot.cc}) side->renderers.clear(), side->renderer = nullptr;
+        for (Side* side : {&slot.ps, &slot.cc}) {
+            for (auto& r : side->renderers) r.reset();
+            side->renderer = nullptr, side->positions = side->normals = {};
+        }
+}
+
+// True unless PSUB_VIEW_CPU_UPLOAD=copy asks for the copy path (to compare the two).
+bool directUploadAllowed() {
+    const char* upload = std::getenv("PSUB_VIEW_CPU_UPLOAD");
+    return !(upload && std::string(upload) == "copy");
+}
+
+// Every renderer any scheme, layout and wireframe needs, for each slot in flight, at the
+// swapchain's size (halves side by side); then whether CPU vertices go direct, and the host
+// arrays the copy path (and the Vulkan read-back for framing) needs. No frame is in flight.
+void Viewer::createRenderers() {
+    const Clock::time_point start = Clock::now();
+    const auto [width, height] = presenter->extent();
+    const Faces& cage = animated.mesh.faces;
+    const Polygons cagePolygons{cage.vertexCount, cage.offsets, cage.verts};
+    const bool cached = directUploadAllowed();
+    RenderOptions ro;
+    ro.height = height, ro.samples = o.samples, ro.everyWireframe = true, ro.cachedVertices = cached;
+    const std::uint32_t half = std::max(1u, width / 2);
+    direct = cached;
+    for (int s = 0; s < framesInFlight; ++s) {
+        Slot& slot = slots[std::size_t(s)];
+        for (int sideBySide = 0; sideBySide < 2; ++sideBySide) {
+            ro.width = sideBySide ? half : width;
+            std::unique_ptr<Renderer>& ps = slot.ps.renderers[std::size_t(sideBySide)];
+            ps = slot.drawnFromDevice ? std::make_unique<Renderer>(*context, *slot.drawnFromDevice, ro, cagePolygons)
+                                      : std::make_unique<Renderer>(*context, polygonsOf(*slot.ps.surface), ro, cagePolygons);
+            ro.width = sideBySide ? std::max(1u, width - half) : width;
+            std::unique_ptr<Renderer>& cc = slot.cc.renderers[std::size_t(sideBySide)];
+            cc = std::make_unique<Renderer>(*context, polygonsOf(*slot.cc.surface), ro, cagePolygons);
+            renderersCreated += 2;
+            // Direct needs the renderers' layout to be the evaluators' (3 packed floats per vertex).
+            direct = direct && cc->verticesCached() && cc->mappedPositions().size() == 3 * std::size_t(built->cc.vertexCount) &&
+                     (slot.drawnFromDevice || (ps->verticesCached() &&
+                                               ps->mappedPositions().size() == 3 * std::size_t(slots[0].evaluator->refinedCount())));
+        }
+    }
+    for (int s = 0; s < framesInFlight; ++s) {
+        Slot& slot = slots[std::size_t(s)];
+        for (Side* side : {&slot.ps, &slot.cc}) {
+            const bool host = !direct || (side == &slot.ps && slot.drawnFromDevice);
+            const std::size_t floats = host ? 3 * std::size_t(side->surface->vertexCount) : 0;
+            side->hostPositions.assign(floats, 0.0f), side->hostNormals.assign(floats, 0.0f);
+            side->hostPositions.shrink_to_fit(), side->hostNormals.shrink_to_fit();
+        }
+    }
+    renderersMs = msBetween(start, Clock::now());
+}
+
+void Viewer::remakeRenderers() {
+    dropRenderers();
+    createRenderers();
 }
 
 // Called with no frame in flight.
@@ -412,13 +477,10 @@ void Viewer::adopt(Built b) {
         }
         slot.ps.surface = &built->ps.surface;
         slot.cc.surface = &built->cc;
-        slot.ps.positions.assign(3 * std::size_t(r.perLevel.refinedCount()), 0.0f);
-        slot.ps.normals.assign(slot.ps.positions.size(), 0.0f);
-        slot.cc.positions.assign(3 * std::size_t(built->cc.vertexCount), 0.0f);
-        slot.cc.normals.assign(slot.cc.positions.size(), 0.0f);
         slot.control.assign(3 * std::size_t(animated.mesh.faces.vertexCount), 0.0f);
     }
     ccNormals = std::make_unique<CpuEvaluator<float>>(built->ccIdentity, built->none, built->cc, TableForm::PerLevel);
+    createRenderers();
 }
 
 void Viewer::act(Action action) {
@@ -436,38 +498,29 @@ void Viewer::act(Action action) {
     }
 }
 
-// The slot's renderers for the sides shown, at the swapchain's size (halves side by side):
-// cached ones, or made now (the first time a layout and wireframe is shown at this size), and
-// the slot's picture sizes.
-void Viewer::chooseRenderers(Slot& slot, int slotScheme, int slotWireframe) {
+// The slot's renderers for the sides its frame shows (made already: this creates nothing), set
+// to its wireframe; where its vertices are evaluated into; the slot's picture sizes.
+void Viewer::chooseRenderers(Slot& slot) {
+    const Shown& s = slot.shown;
     const auto [width, height] = presenter->extent();
-    const Faces& cage = animated.mesh.faces;
-    const Polygons cagePolygons{cage.vertexCount, cage.offsets, cage.verts};
-    RenderOptions ro;
-    ro.height = height, ro.samples = o.samples, ro.wireframe = Wireframe(slotWireframe);
-    const std::uint32_t left = slotScheme == 2 ? std::max(1u, width / 2) : width;
-    const int key = slotWireframe + 3 * (slotScheme == 2);
     slot.ps.renderer = slot.cc.renderer = nullptr;
-    if (slotScheme != 1) {
-        std::unique_ptr<Renderer>& r = slot.ps.renderers[key];
-        ro.width = slot.ps.width = left;
-        if (!r) {
-            r = slot.drawnFromDevice ? std::make_unique<Renderer>(*context, *slot.drawnFromDevice, ro, cagePolygons)
-                                     : std::make_unique<Renderer>(*context, polygonsOf(*slot.ps.surface), ro, cagePolygons);
-            ++renderersCreated;
-        }
-        slot.ps.renderer = r.get();
+    for (Side* side : {&slot.ps, &slot.cc}) {
+        if ((side == &slot.ps && s.scheme == 1) || (side == &slot.cc && s.scheme == 0)) continue;
+        Renderer& r = *side->renderers[std::size_t(s.scheme == 2)];
+        r.setWireframe(Wireframe(s.wireframe));
+        side->renderer = &r;
+        side->width = r.options().width;
+        const bool host = !direct || (side == &slot.ps && slot.drawnFromDevice);
+        side->positions = host ? std::span<float>(side->hostPositions) : r.mappedPositions();
+        side->normals = host ? std::span<float>(side->hostNormals) : r.mappedNormals();
     }
-    if (slotScheme != 0) {
-        std::unique_ptr<Renderer>& r = slot.cc.renderers[key];
-        ro.width = slot.cc.width = slotScheme == 2 ? std::max(1u, width - left) : width;
-        if (!r) {
-            r = std::make_unique<Renderer>(*context, polygonsOf(*slot.cc.surface), ro, cagePolygons);
-            ++renderersCreated;
-        }
-        slot.cc.renderer = r.get();
-    }
-    if (slot.frame.width != width || slot.frame.height != height) slot.frame = filledImage(width, height, ro.background);
+    if (slot.frame.width != width || slot.frame.height != height)
+        slot.frame = filledImage(width, height, RenderOptions{}.background);
+}
+
+// The cameras of the slot's sides, from the orbit as it is now.
+void Viewer::aimCameras(Slot& slot) {
+    const std::uint32_t height = presenter->extent()[1];
     for (Side* side : {&slot.ps, &slot.cc})
         side->camera = orbit.camera(float(std::max(1u, side->width)) / float(height));
 }
@@ -478,9 +531,16 @@ void Viewer::evaluate(Slot& slot) {
     std::array<double, kStageCount>& stage = slot.shown.stage;
     const Clock::time_point start = Clock::now();
     animated.pose(std::fmod(seconds, animated.period), slot.control);
-    const Clock::time_point posed = Clock::now();
-    stage[Deform] = msBetween(start, posed);
-    if (showsPs()) {
+    stage[Deform] = msBetween(start, Clock::now());
+    evaluateSides(slot);
+}
+
+// Evaluates the sides the slot shows from its posed control points, into the vertices
+// chooseRenderers picked; their stage times into its Shown.
+void Viewer::evaluateSides(Slot& slot) {
+    std::array<double, kStageCount>& stage = slot.shown.stage;
+    stage[Upload] = stage[Evaluate] = stage[Normals] = stage[Readback] = 0;
+    if (slot.ps.renderer) {
         // Vulkan: this slot's evaluator, so the frame in flight keeps its buffers. Results are
         // read back only where the host needs them: for the camera to frame them.
         Evaluator& evaluator = slot.drawnFromDevice ? *slot.evaluator : *slots[0].evaluator;
@@ -492,7 +552,7 @@ void Viewer::evaluate(Slot& slot) {
         stage[Normals] = times.normalsMs;
         stage[Readback] = times.readbackMs;
     }
-    if (showsCc()) {  // OpenSubdiv on the CPU, whatever the backend
+    if (slot.cc.renderer) {  // OpenSubdiv on the CPU, whatever the backend
         const Clock::time_point ccStart = Clock::now();
         built->ccStencils->evaluate(slot.control, slot.cc.positions);
         const Clock::time_point evaluated = Clock::now();
@@ -510,13 +570,14 @@ void Viewer::prepare(Slot& slot, bool capture) {
     s.psFaces = psFaces(), s.ccFaces = ccFaces();
     s.playing = playing, s.help = help, s.capture = capture, s.boundary = boundary, s.rules = rules;
     s.fps = fps, s.previousPresentMs = presentMs, s.notice = notice;
+    chooseRenderers(slot);
     evaluate(slot);
     if (!framed) frameModel(slot);
 }
 
-// The drawing of a frame (the draw thread's work with two frames in flight): each side from the
-// slot's positions (CPU, copied into its renderer's mapped vertex buffers) or the slot's
-// evaluator's device buffers (Vulkan), side by side composed, the HUD.
+// The drawing of a frame (the draw thread's work with two frames in flight): each side from
+// its renderer's mapped vertex buffers (CPU, written there directly, or copied from the host
+// arrays) or the slot's evaluator's device buffers (Vulkan), side by side composed, the HUD.
 void Viewer::draw(Slot& slot) {
     const Shown& s = slot.shown;
     for (Side* side : {&slot.ps, &slot.cc}) {
@@ -524,6 +585,7 @@ void Viewer::draw(Slot& slot) {
         side->renderer->setControlPositions(slot.control);
         Image& picture = s.scheme == 2 ? side->picture : slot.frame;
         if (side == &slot.ps && slot.drawnFromDevice) side->renderer->drawKept(side->camera, picture);
+        else if (direct) side->renderer->drawWritten(side->camera, picture);
         else side->renderer->draw(side->positions, side->normals, side->camera, picture);
         const DrawTimes d = side->renderer->lastTimes();
         slot.shown.stage[Upload] += d.uploadMs, slot.shown.stage[Render] += d.renderMs,
@@ -541,9 +603,9 @@ void Viewer::draw(Slot& slot) {
     if (!o.noHud) drawHud(s, o.backend, slot.frame);
 }
 
-// Called after finishDrawing(): the renderers for the slot, then its drawing starts.
+// Called after finishDrawing(): the cameras for the slot, then its drawing starts.
 void Viewer::startDrawing(Slot& slot, int index) {
-    chooseRenderers(slot, slot.shown.scheme, slot.shown.wireframe);
+    aimCameras(slot);
     inFlight = &slot, inFlightIndex = index;
     if (drawThread) drawThread->start(slot);
     else draw(slot);
@@ -561,14 +623,14 @@ bool Viewer::finishDrawing() {
         const bool presented = presenter->present(slot.frame, slot.shown.capture);
         presentMs = slot.shown.stage[Present] = msBetween(start, Clock::now());
         if (presented) break;
-        if (attempt == 7) {
-            dropRenderers();
-            return false;
-        }
         // The presenter re-created the swapchain (resize): nothing else is in flight.
-        dropRenderers();
-        chooseRenderers(slot, slot.shown.scheme, slot.shown.wireframe);
-        slot.shown.stage[Upload] = slot.shown.stage[Render] = slot.shown.stage[Readback] = 0;
+        remakeRenderers();
+        if (attempt == 7) return false;
+        // The new renderers' vertex buffers are evaluated into again (from the slot's pose).
+        chooseRenderers(slot);
+        evaluateSides(slot);
+        aimCameras(slot);
+        slot.shown.stage[Render] = 0;
         draw(slot);
     }
     return true;
@@ -577,8 +639,8 @@ bool Viewer::finishDrawing() {
 // frameBox of what is shown, as psub render frames it.
 void Viewer::frameModel(const Slot& slot) {
     Box box;
-    if (showsPs()) box.extend(slot.ps.positions);
-    if (showsCc()) box.extend(slot.cc.positions);
+    if (slot.ps.renderer) box.extend(slot.ps.positions);
+    if (slot.cc.renderer) box.extend(slot.cc.positions);
     if (wireframe == 2) box.extend(slot.control);
     const auto [width, height] = presenter->extent();
     const std::uint32_t panel = scheme == 2 ? std::max(1u, width / 2) : width;
@@ -631,13 +693,13 @@ void Viewer::writeLog(const Slot& slot, int index) {
                  "\"ps_faces\": %llu, \"cc_faces\": %llu, \"drawn\": [%s%s%s], \"width\": %u, \"height\": %u, "
                  "\"wireframe\": \"%s\", \"playing\": %s, \"boundary\": \"%s\", \"rules\": \"%s\", \"rss_kib\": %ld, "
                  "\"validation_messages\": %llu, \"frames_in_flight\": %d, \"slot\": %d, \"renderers_created\": %llu, "
-                 "\"frame_ms\": %.4f, \"stages\": {",
+                 "\"cpu_upload\": \"%s\", \"frame_ms\": %.4f, \"stages\": {",
                  index, s.levels, s.ccLevels, kSchemeNames[s.scheme], (unsigned long long)(ps ? s.psFaces : s.ccFaces),
                  (unsigned long long)s.psFaces, (unsigned long long)s.ccFaces, ps ? "\"ps\"" : "", ps && cc ? ", " : "",
                  cc ? "\"cc\"" : "", width, height, kWireframeNames[s.wireframe], s.playing ? "true" : "false",
                  s.boundary == Boundary::Paper ? "paper" : "smooth", s.rules == Rules::Paper ? "paper" : "robust",
                  residentKiB(), (unsigned long long)context->validationMessageCount(), framesInFlight,
-                 int(&slot - slots.data()), (unsigned long long)renderersCreated, frameMs);
+                 int(&slot - slots.data()), (unsigned long long)renderersCreated, direct ? "direct" : "copy", frameMs);
     for (int i = 0; i < kStageCount; ++i)
         std::fprintf(log, "%s\"%s_ms\": %.4f", i ? ", " : "", kStageNames[std::size_t(i)], s.stage[std::size_t(i)]);
     std::fprintf(log, "}}\n");
@@ -769,7 +831,7 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
         if (std::uint32_t(w) != extent[0] || std::uint32_t(h) != extent[1]) {
             finish();
             v.presenter->recreate();
-            v.dropRenderers();
+            v.remakeRenderers();
         }
         const Clock::time_point now = Clock::now();
         if (v.playing && index > 0) v.seconds += o.step > 0 ? o.step : msBetween(advanced, now) / 1000.0;
@@ -792,9 +854,9 @@ int loop(Viewer& v, const std::vector<ScriptEvent>& script) {
     }
     const double seconds = msBetween(firstDrawn, Clock::now()) / 1000.0;
     std::printf("psub view: %d frames drawn; %.2f fps after the first frame (%d frames in %.2f s); present mode %s; "
-                "%d frames in flight\n",
+                "%d frames in flight; %llu renderers made (the last set in %.0f ms)\n",
                 drawn, drawn > 1 && seconds > 0 ? (drawn - 1) / seconds : 0.0, drawn - 1, seconds,
-                v.presenter->presentMode(), v.framesInFlight);
+                v.presenter->presentMode(), v.framesInFlight, (unsigned long long)v.renderersCreated, v.renderersMs);
     return 0;
 }
 
@@ -891,7 +953,9 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
     vi->add_option("--log", o.log,
                    "write one JSON line per frame: frame, level, cc_level, scheme, refined_faces, ps_faces, cc_faces, "
                    "drawn, width, height, wireframe, playing, boundary, rules, rss_kib, validation_messages, frames_in_flight, "
-                   "slot (the frame slot drawn), renderers_created (so far; each builds its pipelines once), frame_ms "
+                   "slot (the frame slot drawn), renderers_created (so far; each builds its pipelines once; all are made "
+                   "before frame 0, again on a resize), cpu_upload (direct: CPU-evaluated vertices written into the "
+                   "renderers' mapped, host-cached buffers; copy: into host arrays, then copied), frame_ms "
                    "(wall time since the last frame), "
                    "stages.{deform,upload,evaluate,normals,render,readback,present}_ms");
     vi->footer(
@@ -900,6 +964,10 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
         "play/pause, b boundary, r rules, f frame the model, h help, Esc quits (status 0).\n"
         "The start camera is psub render's (it frames the surface at the first frame). Pixels: 8-bit\n"
         "sRGB values, as psub render writes them, shown through a UNORM swapchain (no re-encoding).\n"
+        "Memory: every renderer a mode needs is made up front (8 with 2 frames in flight: slot x scheme x\n"
+        "layout, each with all wireframe modes): 240 bytes per window pixel at --msaa 4 (221 MB at\n"
+        "1280x720), and about 256 bytes per refined face of P-S and of Catmull-Clark (vertices,\n"
+        "triangles, wireframe edges; README: \"Interactive window\").\n"
         "Script (--script FILE): one event per line, applied before drawing that frame (frames count\n"
         "from 0), # starts a comment:\n"
         "  FRAME key K                 K: + - s w space b r h f esc\n"

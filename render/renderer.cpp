@@ -1,8 +1,9 @@
 // The offscreen renderer: graphics pipelines from the SPIR-V of shaders/render_* (embedded at
 // build time), colour (+ MSAA) and depth images, persistently mapped vertex buffers, index
-// buffers of fan triangles and unique edges, a readback buffer, and two command buffers
-// recorded once: render (one render pass), readback (copy -> host barrier). A draw writes
-// buffers, submits, waits on the fence and copies the pixels out.
+// buffers of fan triangles and unique edges (per wireframe mode prepared), a readback buffer,
+// and command buffers recorded once: render (one render pass per wireframe mode prepared),
+// readback (copy -> host barrier). A draw writes buffers, submits, waits on the fence and
+// copies the pixels out.
 #include "psub/render.h"
 #include "psub/vulkan_interop.h"
 
@@ -171,8 +172,13 @@ struct Renderer::Impl {
     VulkanContext::Impl& context;
     RenderOptions options;
     VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
-    std::uint32_t vertexCount = 0, controlVertexCount = 0, triangleIndices = 0, lineIndices = 0;
-    Buffer positions, normals, triangles, lines, controlPositions, uniforms, readback;
+    std::uint32_t vertexCount = 0, controlVertexCount = 0, triangleIndices = 0;
+    Buffer positions, normals, triangles, controlPositions, uniforms, readback;
+    // Per Wireframe mode (None's stay empty): edge index pairs, and the recorded render pass.
+    std::array<Buffer, 3> lines;
+    std::array<std::uint32_t, 3> lineIndices{};
+    std::array<bool, 3> prepared{};  // the modes setWireframe may pick
+    Wireframe wireframe = Wireframe::None;  // the one drawn
     bool textured = false;
     std::array<float, 4> baseColourFactor{1, 1, 1, 1};
     Buffer corners;  // textured: a TexturedCorner per face corner; `triangles` index them
@@ -186,7 +192,8 @@ struct Renderer::Impl {
     VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
     VkPipeline meshPipeline = VK_NULL_HANDLE, linePipeline = VK_NULL_HANDLE;  // mesh: flat or textured
     VkCommandPool commandPool = VK_NULL_HANDLE;
-    VkCommandBuffer renderCommands = VK_NULL_HANDLE, readbackCommands = VK_NULL_HANDLE;
+    std::array<VkCommandBuffer, 3> renderCommands{};  // per Wireframe mode prepared
+    VkCommandBuffer readbackCommands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     DrawTimes times;
     // The vertex buffers drawn: our own (12 bytes per vertex), or an evaluator's (drawsKept).
@@ -204,6 +211,7 @@ struct Renderer::Impl {
     VkPipeline createPipeline(std::span<const std::uint32_t> vertex, std::span<const std::uint32_t> fragment,
                               PipelineKind kind);
     void recordCommands();
+    void recordRender(VkCommandBuffer commands, Wireframe mode);
     void writeUniforms(const Camera& camera);
     // Everything after the options: buffers, texture, images, descriptors, pipelines, commands.
     void build(Polygons surface, Polygons control, const SurfaceTexture& surfaceTexture);
@@ -224,8 +232,9 @@ Renderer::Impl::~Impl() {
     if (framebuffer) vkDestroyFramebuffer(d, framebuffer, nullptr);
     if (renderPass) vkDestroyRenderPass(d, renderPass, nullptr);
     for (Image2D* image : {&colour, &multisampled, &depth}) destroyImage(context, *image);
-    for (Buffer* b : {&positions, &normals, &triangles, &lines, &controlPositions, &uniforms, &readback, &corners})
+    for (Buffer* b : {&positions, &normals, &triangles, &controlPositions, &uniforms, &readback, &corners})
         destroyBuffer(context, *b);
+    for (Buffer& b : lines) destroyBuffer(context, b);
     render_detail::destroyTexture(context, texture);
 }
 
@@ -247,25 +256,29 @@ void Renderer::Impl::createBuffers(Polygons surface, Polygons control, const Sur
     const Polygons drawn = textured ? Polygons{std::uint32_t(cornerIds.size()), surfaceTexture.faceOffsets, cornerIds}
                                     : surface;
     const std::vector<std::uint32_t> fan = fanTriangles(drawn);
-    std::vector<std::uint32_t> edges;
-    if (options.wireframe == Wireframe::Refined) edges = uniqueEdges(surface);
-    if (options.wireframe == Wireframe::Control) edges = uniqueEdges(control);
-    if (fan.size() > 0xffffffffu || edges.size() > 0xffffffffu)
-        throw std::invalid_argument("Renderer: more than 2^32 indices in one draw");
+    if (fan.size() > 0xffffffffu) throw std::invalid_argument("Renderer: more than 2^32 indices in one draw");
     triangleIndices = std::uint32_t(fan.size());
-    lineIndices = std::uint32_t(edges.size());
     const VkBufferUsageFlags vertexUsage = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;
     const VkBufferUsageFlags pulled = textured ? VK_BUFFER_USAGE_STORAGE_BUFFER_BIT : 0;  // render_textured.vert
     if (!drawsKept) {  // else the evaluator's buffers are drawn
-        positions = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
-        normals = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, Memory::Device, true);
+        // Cached: host-visible, coherent, host-cached where there is such a type (Readback prefers it).
+        const Memory vertexMemory = options.cachedVertices ? Memory::Readback : Memory::Device;
+        positions = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, vertexMemory, true);
+        normals = createBuffer(c, 12ull * vertexCount, vertexUsage | pulled, vertexMemory, true);
     }
-    if (options.wireframe == Wireframe::Control)
+    if (prepared[std::size_t(Wireframe::Control)])
         controlPositions = createBuffer(c, 12ull * controlVertexCount, vertexUsage, Memory::Device, true);
     triangles = createBuffer(c, 4ull * fan.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
     if (!fan.empty()) std::memcpy(triangles.mapped, fan.data(), 4 * fan.size());
-    lines = createBuffer(c, 4ull * edges.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
-    if (!edges.empty()) std::memcpy(lines.mapped, edges.data(), 4 * edges.size());
+    for (Wireframe mode : {Wireframe::Refined, Wireframe::Control}) {
+        const std::size_t m = std::size_t(mode);
+        if (!prepared[m]) continue;
+        const std::vector<std::uint32_t> edges = uniqueEdges(mode == Wireframe::Refined ? surface : control);
+        if (edges.size() > 0xffffffffu) throw std::invalid_argument("Renderer: more than 2^32 indices in one draw");
+        lineIndices[m] = std::uint32_t(edges.size());
+        lines[m] = createBuffer(c, 4ull * edges.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT, Memory::Device, true);
+        if (!edges.empty()) std::memcpy(lines[m].mapped, edges.data(), 4 * edges.size());
+    }
     uniforms = createBuffer(c, sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, Memory::Upload, true);
     readback = createBuffer(c, 4ull * options.width * options.height, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                             Memory::Readback, true);
@@ -504,17 +517,41 @@ void Renderer::Impl::recordCommands() {
     allocate.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
     allocate.commandPool = commandPool;
     allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    allocate.commandBufferCount = 2;
-    VkCommandBuffer commands[2];
+    allocate.commandBufferCount = 4;
+    VkCommandBuffer commands[4];
     VK_CHECK(vkAllocateCommandBuffers(d, &allocate, commands));
-    renderCommands = commands[0], readbackCommands = commands[1];
+    readbackCommands = commands[3];
     VkFenceCreateInfo fenceInfo{};
     fenceInfo.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     VK_CHECK(vkCreateFence(d, &fenceInfo, nullptr, &fence));
+    for (Wireframe mode : {Wireframe::None, Wireframe::Refined, Wireframe::Control}) {
+        const std::size_t m = std::size_t(mode);
+        if (!prepared[m]) continue;
+        renderCommands[m] = commands[m];
+        recordRender(renderCommands[m], mode);
+    }
 
+    // Readback: the render pass left the image in TRANSFER_SRC_OPTIMAL, its writes made
+    // visible to transfers by the pass's outgoing dependency.
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    VK_CHECK(vkBeginCommandBuffer(renderCommands, &begin));
+    VK_CHECK(vkBeginCommandBuffer(readbackCommands, &begin));
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {options.width, options.height, 1};
+    vkCmdCopyImageToBuffer(readbackCommands, colour.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1,
+                           &region);
+    bufferBarrier(readbackCommands, readback, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+    VK_CHECK(vkEndCommandBuffer(readbackCommands));
+}
+
+// One render pass: the surface, then the lines of `mode`.
+void Renderer::Impl::recordRender(VkCommandBuffer commands, Wireframe mode) {
+    const std::uint32_t lineCount = lineIndices[std::size_t(mode)];
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    VK_CHECK(vkBeginCommandBuffer(commands, &begin));
     VkClearValue clears[3]{};
     toFloats(options.background, clears[0].color.float32);
     clears[1].depthStencil = {1.0f, 0};
@@ -525,41 +562,29 @@ void Renderer::Impl::recordCommands() {
     pass.renderArea = {{0, 0}, {options.width, options.height}};
     pass.clearValueCount = 2;
     pass.pClearValues = clears;
-    vkCmdBeginRenderPass(renderCommands, &pass, VK_SUBPASS_CONTENTS_INLINE);
-    vkCmdBindDescriptorSets(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1, &descriptorSet, 0,
+    vkCmdBeginRenderPass(commands, &pass, VK_SUBPASS_CONTENTS_INLINE);
+    vkCmdBindDescriptorSets(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1, &descriptorSet, 0,
                             nullptr);
     const VkDeviceSize zero[2] = {0, 0};
     if (triangleIndices) {
         const VkBuffer meshBuffers[2] = {drawnPositions, drawnNormals};
-        vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, meshPipeline);
+        vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, meshPipeline);
         if (textured)
-            vkCmdBindVertexBuffers(renderCommands, 0, 1, &corners.buffer, zero);
+            vkCmdBindVertexBuffers(commands, 0, 1, &corners.buffer, zero);
         else
-            vkCmdBindVertexBuffers(renderCommands, 0, 2, meshBuffers, zero);
-        vkCmdBindIndexBuffer(renderCommands, triangles.buffer, 0, VK_INDEX_TYPE_UINT32);
-        vkCmdDrawIndexed(renderCommands, triangleIndices, 1, 0, 0, 0);
+            vkCmdBindVertexBuffers(commands, 0, 2, meshBuffers, zero);
+        vkCmdBindIndexBuffer(commands, triangles.buffer, 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(commands, triangleIndices, 1, 0, 0, 0);
     }
-    if (lineIndices) {
-        const VkBuffer lineSource = options.wireframe == Wireframe::Control ? controlPositions.buffer : drawnPositions;
-        vkCmdBindPipeline(renderCommands, VK_PIPELINE_BIND_POINT_GRAPHICS, linePipeline);
-        vkCmdBindVertexBuffers(renderCommands, 0, 1, &lineSource, zero);
-        vkCmdBindIndexBuffer(renderCommands, lines.buffer, 0, VK_INDEX_TYPE_UINT32);
-        vkCmdDrawIndexed(renderCommands, lineIndices, 1, 0, 0, 0);
+    if (lineCount) {
+        const VkBuffer lineSource = mode == Wireframe::Control ? controlPositions.buffer : drawnPositions;
+        vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, linePipeline);
+        vkCmdBindVertexBuffers(commands, 0, 1, &lineSource, zero);
+        vkCmdBindIndexBuffer(commands, lines[std::size_t(mode)].buffer, 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(commands, lineCount, 1, 0, 0, 0);
     }
-    vkCmdEndRenderPass(renderCommands);
-    VK_CHECK(vkEndCommandBuffer(renderCommands));
-
-    // Readback: the render pass left the image in TRANSFER_SRC_OPTIMAL, its writes made
-    // visible to transfers by the pass's outgoing dependency.
-    VK_CHECK(vkBeginCommandBuffer(readbackCommands, &begin));
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {options.width, options.height, 1};
-    vkCmdCopyImageToBuffer(readbackCommands, colour.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1,
-                           &region);
-    bufferBarrier(readbackCommands, readback, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                  VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
-    VK_CHECK(vkEndCommandBuffer(readbackCommands));
+    vkCmdEndRenderPass(commands);
+    VK_CHECK(vkEndCommandBuffer(commands));
 }
 
 
@@ -616,6 +641,12 @@ void Renderer::Impl::build(Polygons surface, Polygons control, const SurfaceText
                           c.properties.deviceName + ") cannot do graphics, which rendering needs");
     vertexCount = surface.vertexCount;
     controlVertexCount = control.vertexCount;
+    wireframe = options.wireframe;
+    prepared[std::size_t(wireframe)] = true;
+    if (options.everyWireframe) {
+        prepared[std::size_t(Wireframe::None)] = prepared[std::size_t(Wireframe::Refined)] = true;
+        prepared[std::size_t(Wireframe::Control)] = control.offsets.size() >= 2;
+    }
     samples = chooseSamples(c.properties.limits, std::max(1u, options.samples));
     options.samples = std::uint32_t(samples);
     textured = !surfaceTexture.empty();
@@ -639,7 +670,7 @@ void Renderer::Impl::createPipelines() {
 void Renderer::Impl::renderAndReadBack(const Camera& camera, Clock::time_point start, Image& out) {
     writeUniforms(camera);
     const auto uploaded = Clock::now();
-    submitAndWait(context, renderCommands, fence);
+    submitAndWait(context, renderCommands[std::size_t(wireframe)], fence);
     const auto rendered = Clock::now();
     submitAndWait(context, readbackCommands, fence);
     const std::size_t bytes = 4 * std::size_t(options.width) * options.height;
@@ -660,7 +691,35 @@ void Renderer::drawKept(const Camera& camera, Image& out) {
 const RenderOptions& Renderer::options() const { return impl_->options; }
 DrawTimes Renderer::lastTimes() const { return impl_->times; }
 std::uint32_t Renderer::triangleCount() const { return impl_->triangleIndices / 3; }
-std::uint32_t Renderer::lineCount() const { return impl_->lineIndices / 2; }
+std::uint32_t Renderer::lineCount() const { return impl_->lineIndices[std::size_t(impl_->wireframe)] / 2; }
+
+void Renderer::setWireframe(Wireframe wireframe) {
+    if (!impl_->prepared[std::size_t(wireframe)])
+        throw std::invalid_argument("Renderer::setWireframe: this renderer has no lines for that mode "
+                                    "(needs options.everyWireframe, and control faces for Control)");
+    impl_->wireframe = wireframe;
+}
+
+std::span<float> Renderer::mappedPositions() {
+    Impl& r = *impl_;
+    return r.drawsKept ? std::span<float>() : std::span<float>(static_cast<float*>(r.positions.mapped), 3 * std::size_t(r.vertexCount));
+}
+
+std::span<float> Renderer::mappedNormals() {
+    Impl& r = *impl_;
+    return r.drawsKept ? std::span<float>() : std::span<float>(static_cast<float*>(r.normals.mapped), 3 * std::size_t(r.vertexCount));
+}
+
+bool Renderer::verticesCached() const {
+    const Impl& r = *impl_;
+    return !r.drawsKept && (r.positions.flags & r.normals.flags & VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+}
+
+void Renderer::drawWritten(const Camera& camera, Image& out) {
+    Impl& r = *impl_;
+    if (r.drawsKept) throw std::logic_error("Renderer::drawWritten: this renderer draws an evaluator's buffers (use drawKept)");
+    r.renderAndReadBack(camera, Clock::now(), out);
+}
 
 void Renderer::setControlPositions(std::span<const float> xyz) {
     Impl& r = *impl_;

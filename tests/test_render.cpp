@@ -1,9 +1,11 @@
 // The offscreen renderer (psub_render) on lavapipe (or any device) with the Khronos validation
 // layer on in every test: the refined cube renders, its silhouette matches the refined
 // triangles projected on the CPU with the camera's matrix, CPU- and Vulkan-evaluated positions
-// give the same picture, wireframes add dark lines, draws are deterministic; the camera frames
-// its box; PNG files round-trip and fail cleanly; captions and panels; `psub render`. Each
-// test fails on any validation message, and without a device unless PSUB_ALLOW_NO_VULKAN=1.
+// give the same picture, wireframes add dark lines, draws are deterministic, one renderer
+// switches wireframe modes, vertices written in its mapped buffers draw as copied ones; the
+// camera frames its box; PNG files round-trip and fail cleanly; captions and panels; `psub
+// render`. Each test fails on any validation message, and without a device unless
+// PSUB_ALLOW_NO_VULKAN=1.
 #include "psub/evaluator.h"
 #include "psub/render.h"
 #include "psub/stencils.h"
@@ -20,6 +22,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <span>
+#include <stdexcept>
 #include <string>
 
 #include <dlfcn.h>
@@ -277,6 +281,61 @@ TEST_F(Render, DrawingTwiceGivesIdenticalImagesInTheSameBuffer) {
     renderer.draw(cube.positions, cube.normals, camera, image);
     EXPECT_EQ(image.rgba.data(), storage) << "the caller's image is reused, not reallocated";
     EXPECT_TRUE(image.rgba == first.rgba);
+}
+
+// One renderer with every wireframe mode (psub view switches with `w`) draws, per mode, the
+// very bytes of a renderer made for that mode alone; its line count follows the mode.
+TEST_F(Render, EveryWireframeRendererDrawsAsTheOneModeRenderers) {
+    const Refined& cube = cube4();
+    RenderOptions every = small();
+    every.everyWireframe = true;
+    Renderer all(context(), cube.surface(), every, cube.cage());
+    all.setControlPositions(cube.control);
+    Box box;
+    box.extend(cube.control);
+    const Camera camera = frameBox(box, 1.0f);
+    for (Wireframe mode : {Wireframe::Refined, Wireframe::Control, Wireframe::None}) {
+        Renderer one(context(), cube.surface(), small(mode), cube.cage());
+        one.setControlPositions(cube.control);
+        Image expected, got;
+        one.draw(cube.positions, cube.normals, camera, expected);
+        all.setWireframe(mode);
+        all.draw(cube.positions, cube.normals, camera, got);
+        EXPECT_TRUE(got.rgba == expected.rgba) << "wireframe mode " << int(mode);
+        EXPECT_EQ(all.lineCount(), one.lineCount()) << "wireframe mode " << int(mode);
+    }
+    all.setWireframe(Wireframe::Control);
+    EXPECT_EQ(all.lineCount(), 12u) << "a cube has 12 edges";
+    all.setWireframe(Wireframe::None);
+    EXPECT_EQ(all.lineCount(), 0u);
+    Renderer single(context(), cube.surface(), small(Wireframe::Refined), cube.cage());
+    EXPECT_THROW(single.setWireframe(Wireframe::None), std::invalid_argument) << "made for one mode";
+    single.setWireframe(Wireframe::Refined);
+    Renderer noCage(context(), cube.surface(), every);
+    EXPECT_THROW(noCage.setWireframe(Wireframe::Control), std::invalid_argument) << "no control faces given";
+}
+
+// Vertices written straight into the mapped buffers (psub view's direct CPU path) draw the
+// same bytes as the same values given to draw(), which copies them there.
+TEST_F(Render, WrittenVerticesDrawAsCopiedOnes) {
+    const Refined& cube = cube4();
+    RenderOptions cached = small(Wireframe::Refined);
+    cached.cachedVertices = true;
+    Renderer written(context(), cube.surface(), cached), copied(context(), cube.surface(), small(Wireframe::Refined));
+    const std::span<float> positions = written.mappedPositions(), normals = written.mappedNormals();
+    ASSERT_EQ(positions.size(), cube.positions.size());
+    ASSERT_EQ(normals.size(), cube.normals.size());
+    std::copy(cube.positions.begin(), cube.positions.end(), positions.begin());
+    std::copy(cube.normals.begin(), cube.normals.end(), normals.begin());
+    const Camera camera = cameraFor(cube.positions, cached);
+    Image expected, got;
+    copied.draw(cube.positions, cube.normals, camera, expected);
+    written.drawWritten(camera, got);
+    EXPECT_GT(notBackground(got, cached.background), 1000u);
+    EXPECT_TRUE(got.rgba == expected.rgba);
+    for (float& v : positions) v *= 0.5f;  // the next draw sees what is written now
+    written.drawWritten(camera, got);
+    EXPECT_FALSE(got.rgba == expected.rgba);
 }
 
 TEST_F(Render, AnyPolygonIsDrawnAsAFan) {

@@ -1,9 +1,11 @@
 // psub view's frame loop, run as a program under Xvfb (xvfb-run -a) with lavapipe and the
 // validation layer on (any message fails): two frames in flight (the log's slot alternates, and
 // the picture equals the one drawn with one frame in flight, with the CPU and the Vulkan
-// evaluator), and `s` / `w` reuse the renderers (and their pipelines) made the first time each
-// mode was shown; only a resize makes new ones. Without Xvfb or a device these fail, unless
-// PSUB_ALLOW_NO_VULKAN=1.
+// evaluator), every renderer (and so every pipeline) any `s` / `w` mode needs is made before
+// frame 0 and only a resize makes new ones, and the CPU evaluator's vertices written straight
+// into the renderers' mapped buffers (lavapipe's memory is host-cached: "cpu_upload": "direct")
+// draw the picture of the copy path (forced by PSUB_VIEW_CPU_UPLOAD=copy). Without Xvfb or a
+// device these fail, unless PSUB_ALLOW_NO_VULKAN=1.
 #include "psub/image.h"
 #include "test_support.h"
 
@@ -30,10 +32,11 @@ std::string temp(const std::string& name) {
 
 std::string q(const std::string& path) { return test::quoted(path); }
 
-// `psub view ARGS` under a fresh Xvfb server with the validation layer on.
-test::PsubRun view(const std::string& args) {
+// `psub view ARGS` under a fresh Xvfb server with the validation layer on, and `environment`
+// (VAR=value words) too.
+test::PsubRun view(const std::string& args, const std::string& environment = "") {
     test::PsubHow how;
-    how.environment = std::string(test::kNoLeakCheck) + " PSUB_VULKAN_VALIDATION=1";
+    how.environment = std::string(test::kNoLeakCheck) + " PSUB_VULKAN_VALIDATION=1 " + environment;
     how.prefix = "xvfb-run -a -s '-screen 0 1600x1200x24'";
     return test::runPsub("view " + args, how);
 }
@@ -146,9 +149,11 @@ TEST_P(FramesInFlight, SlotsAlternateAndThePictureIsTheOneAtATimeOne) {
 INSTANTIATE_TEST_SUITE_P(Backends, FramesInFlight, ::testing::Values("cpu", "vulkan"));
 
 // Four rounds of s s s w w w (and a frame without keys, so each round starts in the other
-// slot): after two rounds every mode has drawn in both slots, and rounds three and four create
-// no renderer (each renderer makes its pipelines once, in its constructor). A resize then makes
-// new ones at the new size.
+// slot): every mode draws in both slots, yet frame 0 already counts every renderer made until
+// the resize (each makes its pipelines once, in its constructor): 2 slots x 2 schemes (P-S,
+// Catmull-Clark) x 2 layouts (whole window, side by side), each holding all 3 wireframe modes,
+// = 8. On the old behaviour (made on a mode's first use) frame 0 counted 1 and the count grew
+// with the keys. A resize then makes the 8 again at the new size.
 TEST_F(ViewFrames, SchemeAndWireframeKeysReuseTheirRenderers) {
     std::string keys;
     for (int round = 0; round < 4; ++round) {
@@ -166,14 +171,49 @@ TEST_F(ViewFrames, SchemeAndWireframeKeysReuseTheirRenderers) {
     EXPECT_TRUE(contains(lines[2], "\"scheme\": \"both\"")) << lines[2];
     EXPECT_TRUE(contains(lines[5], "\"wireframe\": \"control\"")) << lines[5];
     EXPECT_TRUE(contains(lines[23], "\"scheme\": \"both\"")) << lines[23];
-    const double afterTwoRounds = field(lines[14], "renderers_created");
-    EXPECT_GE(afterTwoRounds, 2 * 6) << "ps: 3 wireframes + side by side, cc: alone + side by side, per slot";
-    EXPECT_EQ(field(lines[28], "renderers_created"), afterTwoRounds) << "rounds three and four made renderers";
+    const double atFrame0 = field(lines[0], "renderers_created");
+    EXPECT_EQ(atFrame0, 8) << "2 slots x 2 schemes x 2 layouts, made before the first frame";
+    for (std::size_t i = 1; i < 30; ++i)
+        EXPECT_EQ(field(lines[i], "renderers_created"), atFrame0) << "s or w made a renderer: " << lines[i];
     EXPECT_EQ(field(lines[29], "width"), 320);
     EXPECT_EQ(field(lines[30], "width"), 360);
-    EXPECT_GT(field(lines[32], "renderers_created"), afterTwoRounds) << "a resize makes renderers at the new size";
+    EXPECT_EQ(field(lines[32], "renderers_created"), 2 * atFrame0) << "a resize makes them again at the new size";
     for (const std::string& line : lines) EXPECT_EQ(field(line, "validation_messages"), 0);
     fs::remove(log);
+}
+
+// The CPU evaluator writes P-S and the Catmull-Clark side's vertices straight into the
+// renderers' mapped buffers when their memory is host-cached (lavapipe's is: the log says
+// "direct"); PSUB_VIEW_CPU_UPLOAD=copy forces the copy from host arrays ("copy"). Both draw the
+// same bytes, side by side with the refined wireframe and with P-S alone, two frames in flight.
+TEST_F(ViewFrames, CpuVerticesWrittenInPlaceDrawTheCopiedPicture) {
+    for (const std::string keys : {"", "1 key s\n2 key s\n3 key w\n"}) {
+        const std::string base = q(test::dataPath("spot_control_mesh.obj")) +
+                                 " --levels 2 --anim twist --step 0.07 --size 320x240 --no-hud --frames 6 --script " +
+                                 q(script("upload.txt", keys));
+        const std::string direct = temp("direct.png"), copy = temp("copy.png");
+        const std::string directLog = temp("direct.jsonl"), copyLog = temp("copy.jsonl");
+        expectClean(view(base + " --screenshot " + q(direct) + " --log " + q(directLog)));
+        expectClean(view(base + " --screenshot " + q(copy) + " --log " + q(copyLog), "PSUB_VIEW_CPU_UPLOAD=copy"));
+        const std::vector<std::string> directLines = logLines(directLog), copyLines = logLines(copyLog);
+        ASSERT_EQ(directLines.size(), 6u);
+        ASSERT_EQ(copyLines.size(), 6u);
+        for (std::size_t i = 0; i < 6; ++i) {
+            EXPECT_TRUE(contains(directLines[i], "\"cpu_upload\": \"direct\"")) << directLines[i];
+            EXPECT_TRUE(contains(copyLines[i], "\"cpu_upload\": \"copy\"")) << copyLines[i];
+        }
+        if (!keys.empty()) {
+            EXPECT_TRUE(contains(directLines[5], "\"scheme\": \"both\"")) << directLines[5];
+            EXPECT_TRUE(contains(directLines[5], "\"wireframe\": \"refined\"")) << directLines[5];
+        }
+        const Image a = readPng(direct), b = readPng(copy);
+        EXPECT_EQ(a.width, 320u);
+        EXPECT_TRUE(a.rgba == b.rgba) << "keys: " << keys;
+        std::size_t background = 0;  // the model is drawn: not all white
+        for (std::size_t i = 0; i < a.rgba.size(); i += 4) background += a.rgba[i] == 255 && a.rgba[i + 1] == 255 && a.rgba[i + 2] == 255;
+        EXPECT_LT(background, a.rgba.size() / 4 - 1000) << "keys: " << keys;
+        for (const std::string& path : {direct, copy, directLog, copyLog}) fs::remove(path);
+    }
 }
 
 }  // namespace

@@ -78,6 +78,7 @@ Buffer createBuffer(const VulkanContext::Impl& context, VkDeviceSize bytes, VkBu
         allocate.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
         allocate.allocationSize = requirements.size;
         allocate.memoryTypeIndex = type;
+        b.flags = context.memory.memoryTypes[type].propertyFlags;
         VK_CHECK(vkAllocateMemory(context.device, &allocate, nullptr, &b.memory));
         VK_CHECK(vkBindBufferMemory(context.device, b.buffer, b.memory, 0));
         if (map) VK_CHECK(vkMapMemory(context.device, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped));

@@ -19,6 +19,7 @@ struct Buffer {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkDeviceSize size = 0;    // bytes, at least 16
     void* mapped = nullptr;   // persistently mapped when host-visible memory was asked for
+    VkMemoryPropertyFlags flags = 0;  // of the memory type it got
 };
 
 // A buffer of at least `bytes` (rounded up to 16) with `usage`; mapped when `map`. Throws

@@ -96,6 +96,14 @@ struct RenderOptions {
     Rgba background{255, 255, 255, 255};
     Rgba surface{170, 190, 215, 255};
     Rgba lines{25, 25, 35, 255};
+    // Lines for every Wireframe mode are made up front (the refined edges, and the control
+    // edges when control faces are given), so setWireframe() switches without creating
+    // anything; costs an index buffer of 8 bytes per refined edge (about 16 bytes per face).
+    bool everyWireframe = false;
+    // Host-vertex renderers: put the persistently mapped vertex buffers in host-visible,
+    // coherent and host-cached memory where the device has such a type (a caller that writes
+    // them itself and reads them back, psub view's CPU path); verticesCached() says if it did.
+    bool cachedVertices = false;
 };
 
 // Milliseconds of the last draw: copying positions and normals into the mapped vertex
@@ -111,7 +119,8 @@ struct DrawTimes {
 // a texture; the textured faces pull positions and normals by index from storage buffers, so
 // their corners' UVs stay on the device and a frame uploads only positions and normals; lines drawn over
 // it pulled slightly towards the eye), colour and depth images, vertex, index and readback
-// buffers, two pre-recorded command buffers and a fence. A draw allocates nothing and
+// buffers, pre-recorded command buffers (a render pass per wireframe mode prepared, a
+// read-back) and a fence. A draw allocates nothing and
 // creates nothing. Needs a context whose queue can do graphics (lavapipe's can; on devices
 // where the context picked a compute-only queue family it throws VulkanError). Must not
 // outlive the context; not thread-safe.
@@ -144,12 +153,27 @@ public:
     // a caller that keeps `out` allocates once).
     void draw(std::span<const float> positions, std::span<const float> normals, const Camera& camera, Image& out);
 
+    // The persistently mapped vertex buffers draw() copies into (3 floats per surface vertex
+    // each; empty for a renderer of an evaluator's buffers). A caller may write them itself
+    // and call drawWritten(): the same picture as draw() of the same values, one copy less.
+    // Not while a draw runs.
+    std::span<float> mappedPositions();
+    std::span<float> mappedNormals();
+    // True when both live in host-cached memory (reading them back is fast).
+    bool verticesCached() const;
+    // One frame of what mappedPositions() and mappedNormals() hold now.
+    void drawWritten(const Camera& camera, Image& out);
+
+    // The wireframe of the following draws: options().wireframe, or with everyWireframe any
+    // mode (Control only when control faces were given); std::invalid_argument otherwise.
+    void setWireframe(Wireframe wireframe);
+
     // One frame from the evaluator given to the constructor, as it was left by its last
     // evaluateKept(control, true) (std::logic_error for a renderer of host vertices).
     void drawKept(const Camera& camera, Image& out);
 
     DrawTimes lastTimes() const;
-    // Triangles and line segments drawn per frame.
+    // Triangles and line segments drawn per frame (the lines of the current wireframe).
     std::uint32_t triangleCount() const;
     std::uint32_t lineCount() const;
 
