@@ -318,17 +318,10 @@ double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& co
 
 // The CPU table form: the forced one, or (auto) the tiled form when it has tiles and a quick
 // timing of both on the rest pose finds it faster than the per-level rows (on meshes whose
-// finest points come mostly from the fallback it is slower; docs/tiled.md).
+// finest points come mostly from the fallback it is slower; docs/tiled.md). Textured or not:
+// the tiled form draws the texture with its own faces (TiledTable::uvFace...).
 void chooseForm(Playback& p) {
     const Refinement& r = p.refinement;
-    if (p.textured) {
-        // Textured faces index the canonical order; the tiled form writes its drawing order.
-        if (p.o.form == kFormTiled)
-            throw InputError(p.o.input + ": --form tiled cannot draw a texture (the tiled form writes its drawing order; textured faces index the canonical one)");
-        p.form = p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
-        p.formReason = "textured drawing uses the canonical order";
-        return;
-    }
     if (p.o.form != kFormAuto) {
         p.form = p.o.form == kFormTiled ? TableForm::Tiled
                  : p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
@@ -396,14 +389,18 @@ int prepare(Playback& p) {
     if (p.rendering()) {
         RenderOptions ro;
         ro.width = o.width, ro.height = o.height, ro.wireframe = Wireframe(o.wireframe), ro.samples = o.samples;
+        if (!p.textured && p.animated.asset)  // a glTF material's base colour factor (materialColour)
+            if (const std::optional<Rgba> colour = materialColour(p.animated.asset->material)) ro.surface = *colour;
         const Faces& cage = p.animated.mesh.faces;
         const Polygons control{cage.vertexCount, cage.offsets, cage.verts};
         if (p.textured) {
-            // UVs do not move with the animation: refined once, here. Their faces index the
-            // canonical order (chooseForm keeps the tiled form away from textured drawing).
-            TextureData texture = textureData(std::move(p.textureImage), p.animated.mesh, r.uv);
+            // UVs do not move with the animation: refined once, here, per level. Their faces
+            // name the positions in the order the evaluator writes them: the channel's own
+            // (canonical order) or, for the tiled form, the tiled table's (its drawing order).
+            TextureData texture = textureData(std::move(p.textureImage), p.animated.mesh, r.uv,
+                                              p.form == TableForm::Tiled ? &r.tiled : nullptr);
             texture.factor = p.textureFactor;
-            p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(r.surface), ro, control,
+            p.renderer = std::make_unique<Renderer>(*p.context, polygonsOf(p.evaluator->surface()), ro, control,
                                                     texture.surfaceTexture());
         } else {
             // The evaluator's surface() indexes the order it writes (the tiled form's drawing order).

@@ -104,7 +104,7 @@ Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, i
 
 SurfaceTexture TextureData::surfaceTexture() const {
     SurfaceTexture t;
-    t.faceOffsets = table->faceOffsets, t.faceVerts = table->faceVerts, t.faceValues = table->faceValues;
+    t.faceOffsets = faceOffsets, t.faceVerts = faceVerts, t.faceValues = faceValues;
     t.uv = uv;
     t.image = &image;
     t.factor = factor;
@@ -135,6 +135,14 @@ std::optional<MaterialTexture> materialTexture(const Mesh& mesh, const std::opti
     return t;
 }
 
+std::optional<Rgba> materialColour(const std::optional<GltfMaterial>& material) {
+    if (!material || material->baseColorTexture) return std::nullopt;
+    const std::array<double, 4>& f = material->baseColorFactor;
+    if (f[0] == 1 && f[1] == 1 && f[2] == 1) return std::nullopt;
+    const auto byte = [](double x) { return std::uint8_t(std::lround(255 * std::clamp(x, 0.0, 1.0))); };
+    return Rgba{byte(f[0]), byte(f[1]), byte(f[2]), 255};
+}
+
 Image readTextureImage(const std::string& imagePath) {
     try {
         return readImage(imagePath);
@@ -149,13 +157,14 @@ void requireUvs(const Mesh& mesh) {
                          "TEXCOORD_0) and this mesh has none");
 }
 
-TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table) {
+TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table, const TiledTable* drawing) {
     requireUvs(mesh);
-    if (table.empty() || table.width != 2 || mesh.uv.width != 2)
+    if (table.empty() || table.width != 2 || mesh.uv.width != 2 || (drawing && drawing->uvFaceVerts.empty()))
         throw InputError(mesh.source.path + ": --texture: the refinement produced no UVs for this mesh");
     TextureData t;
     t.image = std::move(image);
-    t.table = &table;
+    if (drawing) t.faceOffsets = drawing->uvFaceOffsets, t.faceVerts = drawing->uvFaceVerts, t.faceValues = drawing->uvFaceValues;
+    else t.faceOffsets = table.faceOffsets, t.faceVerts = table.faceVerts, t.faceValues = table.faceValues;
     const std::vector<float> control(mesh.uv.values.begin(), mesh.uv.values.end());
     t.uv.resize(2 * std::size_t(table.valueCount()));
     evaluateFaceVarying<float>(table, control, t.uv);
@@ -177,9 +186,10 @@ double median(std::vector<double> values) {
 }
 
 int drawAndWrite(VulkanContext& context, const RenderCommandOptions& o, const Mesh& mesh, const Drawable& d,
-                 const TextureData* texture, const std::string& textureLabel) {
+                 const TextureData* texture, const std::string& textureLabel, std::optional<Rgba> colour) {
     RenderOptions ro;
     ro.width = o.width, ro.height = o.height, ro.wireframe = o.wireframe, ro.samples = o.samples;
+    if (colour) ro.surface = *colour;
     const Polygons control{mesh.faces.vertexCount, mesh.faces.offsets, mesh.faces.verts};
     Renderer renderer(context, polygonsOf(d.surface), ro, control,
                       texture ? texture->surfaceTexture() : SurfaceTexture{});
@@ -236,7 +246,8 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
                "outside [0, 1]) at the mesh's UVs, refined with the positions; each face keeps the UVs of its\n"
                "own island, so seams do not smear. A mesh without UVs is refused; an OBJ with UVs and no\n"
                "--texture is drawn in one colour. A glTF whose material has a base colour texture (PNG or\n"
-               "JPEG, embedded or external) is drawn with it and its factor, unless --texture is given.\n"
+               "JPEG, embedded or external) is drawn with it and its factor, unless --texture is given; one\n"
+               "with a factor and no texture is drawn in the factor's colour.\n"
                "Examples:\n  psub render data/cube.obj -o cube.png --levels 4\n"
                "  psub render data/spot_control_mesh.obj -o spot.png --levels 4 --wireframe control --size 800x800\n"
                "  psub render data/cow.obj -o cow_cc.png --levels 2 --scheme cc --wireframe refined\n"
@@ -278,7 +289,9 @@ int runRender(const RenderCommandOptions& o) {
             texture = textureData(std::move(image), mesh, d.uv);
             texture->factor = factor;
         }
-        return drawAndWrite(context, o, mesh, d, texture ? &*texture : nullptr, textureLabel);
+        // Untextured: a glTF material's base colour factor, when it has one (materialColour).
+        const std::optional<Rgba> colour = texture ? std::nullopt : materialColour(loaded.material);
+        return drawAndWrite(context, o, mesh, d, texture ? &*texture : nullptr, textureLabel, colour);
     } catch (const VulkanError& e) {
         std::fprintf(stderr, "psub: error: render: %s\n", e.what());
     } catch (const InputError&) {

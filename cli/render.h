@@ -5,10 +5,12 @@
 #include "commands.h"
 
 #include "psub/render.h"
+#include "psub/tiled.h"
 
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -41,12 +43,13 @@ struct Drawable {
 };
 
 // A base-colour texture ready for the Renderer: the image and the refined UVs per corner of
-// the finest faces (psub::SurfaceTexture points into this; keep it alive through the
-// Renderer's constructor).
+// the finest faces (psub::SurfaceTexture points into this and into the faces' table; keep both
+// alive through the Renderer's constructor).
 struct TextureData {
     Image image;
     std::vector<float> uv;  // 2 floats per refined UV value, glTF's convention (v down)
-    const FaceVaryingTable* table = nullptr;
+    // The faces drawn: the channel's (canonical order) or the tiled form's (drawing order).
+    std::span<const std::uint32_t> faceOffsets, faceVerts, faceValues;
     std::array<float, 4> factor{1.0f, 1.0f, 1.0f, 1.0f};  // glTF's baseColorFactor
 
     SurfaceTexture surfaceTexture() const;
@@ -64,6 +67,13 @@ struct MaterialTexture {
 // InputError naming the mesh's file, the material and the image when the image is broken.
 std::optional<MaterialTexture> materialTexture(const Mesh& mesh, const std::optional<GltfMaterial>& material);
 
+// The flat colour of a glTF material drawn without a texture: its baseColorFactor's red, green
+// and blue (what the textured path gives for a white texture: factor x texture), rounded to
+// bytes; nullopt without a material, with a base colour texture, or when the factor is glTF's
+// default white (1, 1, 1) (absent and white cannot be told apart once read), which keeps the
+// renderer's default colour. Alpha is not drawn (the textured path ignores it too).
+std::optional<Rgba> materialColour(const std::optional<GltfMaterial>& material);
+
 // Reads the image at `imagePath` (PNG or JPEG). InputError naming the file when it is missing
 // or broken.
 Image readTextureImage(const std::string& imagePath);
@@ -72,8 +82,11 @@ Image readTextureImage(const std::string& imagePath);
 void requireUvs(const Mesh& mesh);
 
 // The image and `mesh`'s UVs refined through `table`; an OBJ's `vt` (v up) becomes v down.
+// The faces are the table's (over canonical positions) or, with `drawing`, the tiled form's
+// (TiledTable::uvFace..., over its drawing positions; the UVs are the same values).
 // InputError naming the mesh's file when it has no UVs (or `table` is empty).
-TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table);
+TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& table,
+                        const TiledTable* drawing = nullptr);
 
 // P-S after `levels` steps (after the paired method when needed) of a checked mesh with
 // `rules`, evaluated on `backend` (Cpu or Vulkan on `context`).

@@ -361,6 +361,11 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         out.tiledMs = ms(start);
     }
     if (uv) setFaceVaryingFaces(out.uv, uvLevel);
+    if (uv && options.tiled) {
+        const auto start = Clock::now();
+        setTiledFaceVaryingFaces(out.tiled, out.uv);
+        out.uvMs += ms(start);
+    }
     auto start = Clock::now();
     out.surface = buildSurfaceTable(std::move(parent.faces));
     out.perLevelMs += ms(start);

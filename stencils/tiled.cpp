@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace psub {
 namespace {
@@ -281,6 +282,45 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
     }
     table.surface = buildSurfaceTable(std::move(faces));
     return table;
+}
+
+void setTiledFaceVaryingFaces(TiledTable& tiled, const FaceVaryingTable& channel) {
+    const std::uint32_t count = tiled.refinedCount;
+    if (tiled.canonical.size() != count)
+        throw std::invalid_argument("setTiledFaceVaryingFaces: the tiled table has no drawing order");
+    std::vector<std::uint32_t> drawOf(count);
+    for (std::uint32_t p = 0; p < count; ++p) drawOf[tiled.canonical[p]] = p;
+    const std::size_t faceCount = channel.faceOffsets.size() - 1;
+    // Counting sort (stable) of the faces by their first drawn corner, as tiled.surface's.
+    std::vector<std::uint32_t> firstDrawn(faceCount), start(std::size_t(count) + 1, 0);
+    for (std::size_t f = 0; f < faceCount; ++f) {
+        std::uint32_t first = kNone;
+        for (std::uint32_t c = channel.faceOffsets[f]; c < channel.faceOffsets[f + 1]; ++c) {
+            if (channel.faceVerts[c] >= count)
+                throw std::invalid_argument("setTiledFaceVaryingFaces: face " + std::to_string(f) + " names vertex " +
+                                            std::to_string(channel.faceVerts[c]) + " of " + std::to_string(count));
+            first = std::min(first, drawOf[channel.faceVerts[c]]);
+        }
+        if (first == kNone) throw std::invalid_argument("setTiledFaceVaryingFaces: face " + std::to_string(f) + " is empty");
+        firstDrawn[f] = first;
+        ++start[first + 1];
+    }
+    for (std::size_t p = 0; p < count; ++p) start[p + 1] += start[p];
+    std::vector<std::uint32_t> order(faceCount);
+    for (std::size_t f = 0; f < faceCount; ++f) order[start[firstDrawn[f]]++] = std::uint32_t(f);
+    tiled.uvFaceOffsets.assign(1, 0);
+    tiled.uvFaceOffsets.reserve(faceCount + 1);
+    tiled.uvFaceVerts.clear();
+    tiled.uvFaceValues.clear();
+    tiled.uvFaceVerts.reserve(channel.faceVerts.size());
+    tiled.uvFaceValues.reserve(channel.faceValues.size());
+    for (std::uint32_t f : order) {
+        for (std::uint32_t c = channel.faceOffsets[f]; c < channel.faceOffsets[f + 1]; ++c) {
+            tiled.uvFaceVerts.push_back(drawOf[channel.faceVerts[c]]);
+            tiled.uvFaceValues.push_back(channel.faceValues[c]);
+        }
+        tiled.uvFaceOffsets.push_back(std::uint32_t(tiled.uvFaceVerts.size()));
+    }
 }
 
 TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel) {

@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <set>
@@ -530,6 +531,77 @@ TEST(FaceVarying, SmoothBoundaryLeavesTheChannelEmpty) {
     EXPECT_TRUE(refine(mesh, checked.connectivity, options).uv.empty());
     options.boundary = Boundary::Paper;
     EXPECT_FALSE(refine(mesh, checked.connectivity, options).uv.empty());
+}
+
+// The tiled form's textured faces (TiledTable::uvFace..., docs/face-varying.md): per corner of
+// every refined face drawn from the tiled form, its position (tiled evaluator, drawing order)
+// and UV (the channel's values, evaluated once per level) are those of the same corner of the
+// same face of the per-level channel (its canonical vertex through TiledTable::canonical): the
+// faces are the channel's faces, each once, split seam faces included, with no face mixing
+// islands; ordered by their first drawn corner. Seam models, odd and even levels.
+TEST(FaceVaryingTiled, DrawingOrderCornersHaveThePerLevelPositionsAndUvs) {
+    const std::vector<Case> cases = {{"cube", cubeSixIslands()}, {"cylinder", cylinderOneSeam(12, 8)},
+                                     {"spot", readObj(test::dataPath("spot_control_mesh_uv.obj"))}};
+    for (const Case& c : cases) {
+        std::size_t tiles = 0;
+        for (int levels : {1, 2, 3, 4, 5}) {
+            const std::string what = c.name + " levels " + std::to_string(levels);
+            const CheckedMesh checked = checkMesh(c.mesh);
+            RefineOptions options;
+            options.levels = levels;
+            options.tiled = true;
+            const Refinement r = refine(c.mesh, checked.connectivity, options);
+            const TiledTable& t = r.tiled;
+            tiles += t.tileCount();
+            CpuEvaluator<double> perLevel(r.perLevel, r.factorized, r.surface, TableForm::PerLevel), tiled(t);
+            std::vector<double> canonical(3 * std::size_t(perLevel.refinedCount())), drawing(canonical.size());
+            perLevel.evaluate(c.mesh.positions, canonical);
+            tiled.evaluate(c.mesh.positions, drawing);
+            // The per-level channel's faces, as (canonical vertex, value) per corner: the same value
+            // is the same UV (the values are evaluated once, from the one per-level channel).
+            std::map<std::vector<std::uint32_t>, int> faces;
+            for (std::size_t f = 0; f + 1 < r.uv.faceOffsets.size(); ++f) {
+                std::vector<std::uint32_t> key;
+                for (std::uint32_t k = r.uv.faceOffsets[f]; k < r.uv.faceOffsets[f + 1]; ++k)
+                    key.insert(key.end(), {r.uv.faceVerts[k], r.uv.faceValues[k]});
+                ++faces[key];
+            }
+            ASSERT_EQ(t.uvFaceOffsets.size(), r.uv.faceOffsets.size()) << what;
+            ASSERT_EQ(t.uvFaceValues.size(), t.uvFaceVerts.size()) << what;
+            const double scale = test::boundingDiagonal(canonical);
+            std::uint32_t lastFirst = 0;
+            for (std::size_t f = 0; f + 1 < t.uvFaceOffsets.size(); ++f) {
+                std::vector<std::uint32_t> key;
+                std::uint32_t first = ~0u;
+                for (std::uint32_t k = t.uvFaceOffsets[f]; k < t.uvFaceOffsets[f + 1]; ++k) {
+                    const std::uint32_t p = t.uvFaceVerts[k], v = t.canonical[p];
+                    first = std::min(first, p);
+                    key.insert(key.end(), {v, t.uvFaceValues[k]});
+                    // Tolerance 1e-12 of the diagonal: the same sums in another order (tiles against rows).
+                    for (std::size_t axis = 0; axis < 3; ++axis) {
+                        ASSERT_NEAR(drawing[3 * p + axis], canonical[3 * v + axis], 1e-12 * scale) << what << " face " << f;
+                    }
+                }
+                ASSERT_GE(first, lastFirst) << what << ": faces not ordered by their first drawn corner";
+                lastFirst = first;
+                const auto found = faces.find(key);
+                ASSERT_TRUE(found != faces.end() && found->second > 0)
+                    << what << ": tiled face " << f << " is no face of the per-level channel (or is there twice)";
+                --found->second;
+            }
+            // Every per-level face was met once (the counts match and none went below zero).
+            for (const auto& [key, left] : faces) ASSERT_EQ(left, 0) << what;
+            // The UVs read through the tiled faces are the per-level corners' values: no face mixes islands.
+            FaceVaryingTable drawn = r.uv;
+            drawn.faceOffsets = t.uvFaceOffsets, drawn.faceVerts = t.uvFaceVerts, drawn.faceValues = t.uvFaceValues;
+            expectNoSmear(c.mesh, drawn, what + " (tiled faces)");
+        }
+        // Tiles exist at some level, so drawing positions differ from canonical ones somewhere
+        // (the cube's 8 valence-3 corners leave no regular tile up to 5 steps: all fallback).
+        if (c.name != "cube") {
+            EXPECT_GT(tiles, 0u) << c.name;
+        }
+    }
 }
 
 #if PSUB_HAVE_VULKAN

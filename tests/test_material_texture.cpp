@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <cstring>
 
 namespace {
@@ -43,7 +45,7 @@ struct Quad {
     Image image = Image::Embedded;
     std::string imageBytes;            // Embedded: the image's bytes
     std::string uri = "halves.png";    // External: the image's file
-    std::string factor = "[1, 1, 1, 1]";
+    std::string factor = "[1, 1, 1, 1]";  // empty: no baseColorFactor (glTF's default white)
     bool material = true;
     bool uvs = true;
 };
@@ -72,9 +74,9 @@ std::string quadGlb(const Quad& q) {
     if (q.material) json += ", \"material\": 0";
     json += "}]}],\n";
     if (q.material) {
-        json += "\"materials\": [{\"name\": \"halves\", \"pbrMetallicRoughness\": {\"baseColorFactor\": " + q.factor;
-        if (q.image != Quad::Image::None) json += ", \"baseColorTexture\": {\"index\": 0}";
-        json += "}}],\n";
+        std::string pbr = q.factor.empty() ? "" : "\"baseColorFactor\": " + q.factor;
+        if (q.image != Quad::Image::None) pbr += std::string(pbr.empty() ? "" : ", ") + "\"baseColorTexture\": {\"index\": 0}";
+        json += "\"materials\": [{\"name\": \"halves\", \"pbrMetallicRoughness\": {" + pbr + "}}],\n";
         if (q.image != Quad::Image::None) json += "\"textures\": [{\"source\": 0}],\n";
         if (q.image == Quad::Image::Embedded)
             json += "\"images\": [{\"name\": \"halves\", \"bufferView\": 3, \"mimeType\": \"image/png\"}],\n";
@@ -224,6 +226,99 @@ TEST_F(MaterialTexture, WithoutUvsTheTextureIsLeftOutWithAWarning) {
     EXPECT_TRUE(test::contains(run_.err, "base colour image 0 'halves' is not drawn: the mesh has no TEXCOORD_0"))
         << run_.err;
     EXPECT_EQ(countIf(drawn, isRed), 0);
+}
+
+// A material with a base colour factor and no texture draws the factor's colour (lit, as the
+// textured path draws factor x texture), in `psub render` and `psub play --render`; without the
+// factor (glTF's default white) or without a material, the renderer's default colour.
+TEST_F(MaterialTexture, FactorWithoutTextureIsDrawnInItsColour) {
+    Quad q;
+    q.image = Quad::Image::None;
+    q.factor = "[1, 0, 0, 1]";
+    const std::string red = write("red.glb", quadGlb(q));
+    q.factor = "";
+    const std::string white = write("white.glb", quadGlb(q));
+    q.material = false;
+    const std::string plain = write("plain.glb", quadGlb(q));
+    const Image drawnRed = render(red, "red.png");
+    ASSERT_EQ(run_.status, 0) << run_.out << run_.err;
+    const Image drawnWhite = render(white, "white.png");
+    ASSERT_EQ(run_.status, 0) << run_.out << run_.err;
+    const Image drawnPlain = render(plain, "plain.png");
+    ASSERT_EQ(run_.status, 0) << run_.out << run_.err;
+    // Bound 1000: a floor well under the quad's share of the 96 x 96 = 9216 pixels; not exact.
+    EXPECT_GT(countIf(drawnRed, isRed), 1000);
+    EXPECT_EQ(countIf(drawnPlain, isRed), 0);
+    EXPECT_TRUE(drawnWhite.rgba == drawnPlain.rgba) << "no factor: the default colour, as without a material";
+    // Where the plain quad is drawn (not background white), the red one is red.
+    int model = 0, redOnModel = 0;
+    for (std::uint32_t y = 0; y < drawnPlain.height; ++y)
+        for (std::uint32_t x = 0; x < drawnPlain.width; ++x) {
+            if (drawnPlain.pixel(x, y) == kWhite) continue;
+            ++model;
+            redOnModel += isRed(drawnRed.pixel(x, y)) ? 1 : 0;
+        }
+    EXPECT_GT(model, 1000);
+    // Bound 0.9: all but the anti-aliased silhouette's pixels.
+    EXPECT_GT(redOnModel, 0.9 * model) << redOnModel << " of " << model;
+    const test::PsubRun play = test::runPsub(scratch_, "play " + test::quoted(red) + " --levels 2 --frames 1 --render " +
+                                                           test::quoted(out("frames")) + " --size 96x96");
+    ASSERT_EQ(play.status, 0) << play.out << play.err;
+    EXPECT_GT(countIf(readPng(out("frames") + "/frame_0000.png"), isRed), 1000);
+}
+
+// Pixels of `a` and `b` with some channel more than 2 levels apart.
+int differingPixels(const Image& a, const Image& b) {
+    EXPECT_EQ(a.rgba.size(), b.rgba.size());
+    int differing = 0;
+    for (std::size_t at = 0; at + 3 < std::min(a.rgba.size(), b.rgba.size()); at += 4) {
+        int worst = 0;
+        for (std::size_t k = 0; k < 4; ++k) worst = std::max(worst, std::abs(int(a.rgba[at + k]) - int(b.rgba[at + k])));
+        differing += worst > 2;
+    }
+    return differing;
+}
+
+// `psub play ARGS --form FORM --render DIR --size 160x160` into DIR = out(FORM); the run.
+test::PsubRun playForm(const test::ScratchDir& scratch, const std::string& args, const std::string& form,
+                       const std::string& dir) {
+    return test::runPsub(scratch, "play " + args + " --form " + form + " --render " + test::quoted(dir) + " --size 160x160");
+}
+
+// The tiled form draws textured frames (its faces name its drawing order: TiledTable::uvFace...)
+// equal to the per-level form's: the textured Spot cage (--texture) at odd and even levels (5%
+// and 15% of its points tiled), and the bundled CesiumMan's material texture, walking (its
+// triangle cage leaves no regular tiles: all fallback, its faces still in the tiled order). Bound 4 pixels (as the CPU-against-Vulkan
+// picture of test_render.cpp): float positions of the two forms differ by a few ulps, which can
+// move only pixels that an edge passes within rounding of. And auto, textured, times both forms.
+TEST_F(MaterialTexture, TiledFormDrawsThePerLevelTexturedFrames) {
+    const std::string spot = test::quoted(test::dataPath("spot_control_mesh_uv.obj")) + " --texture " +
+                             test::quoted(test::dataPath("spot_texture.png")) + " --frames 2 --anim twist";
+    const std::string cesium = test::quoted(test::dataPath("CesiumMan.glb")) + " --frames 2 --levels 3";
+    for (const std::string& args : {spot + " --levels 3", spot + " --levels 4", cesium}) {
+        const test::PsubRun tiled = playForm(scratch_, args, "tiled", out("tiled"));
+        ASSERT_EQ(tiled.status, 0) << args << "\n" << tiled.out << tiled.err;
+        EXPECT_TRUE(test::contains(tiled.out, "Table form: tiled (forced)")) << tiled.out;
+        const test::PsubRun perLevel = playForm(scratch_, args, "per-level", out("per-level"));
+        ASSERT_EQ(perLevel.status, 0) << args << "\n" << perLevel.out << perLevel.err;
+        for (const std::string frame : {"/frame_0000.png", "/frame_0001.png"}) {
+            const Image a = readPng(out("tiled") + frame), b = readPng(out("per-level") + frame);
+            EXPECT_LE(differingPixels(a, b), 4) << args << frame;
+            // Textured at all: the default surface colour (170, 190, 215), lit or blended with the
+            // white background, keeps blue above red and green; Spot's pink and CesiumMan's green
+            // do not. Bound 50: a floor, not a count.
+            auto notDefault = [](Rgba p) { return p.r > p.b + 8 || p.g > p.b + 8; };
+            int coloured = 0;
+            for (std::uint32_t y = 0; y < a.height; ++y)
+                for (std::uint32_t x = 0; x < a.width; ++x) coloured += notDefault(a.pixel(x, y)) ? 1 : 0;
+            EXPECT_GT(coloured, 50) << args << frame << ": not textured";
+        }
+        fs::remove_all(out("tiled"));
+        fs::remove_all(out("per-level"));
+    }
+    const test::PsubRun automatic = playForm(scratch_, spot + " --levels 4", "auto", out("auto"));
+    ASSERT_EQ(automatic.status, 0) << automatic.out << automatic.err;
+    EXPECT_TRUE(test::contains(automatic.out, "% of the points tiled; rest pose ")) << automatic.out;
 }
 
 // The bundled CesiumMan walks textured: a frame of `psub play --render` shows the texture's blue

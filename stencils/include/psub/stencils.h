@@ -43,6 +43,13 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
 TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan);
 TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel);
 
+// The face-varying channel's finest faces (`channel`'s) in the tiled form's drawing order:
+// `tiled`'s uvFaceOffsets, uvFaceVerts and uvFaceValues (psub/tiled.h). Each corner's surface
+// vertex is mapped through the inverse of tiled.canonical, its value kept; the faces are
+// ordered, stably, by their first drawn corner, as tiled.surface's. std::invalid_argument
+// when `channel` names vertices `tiled` does not have.
+void setTiledFaceVaryingFaces(TiledTable& tiled, const FaceVaryingTable& channel);
+
 // How a face-varying channel is refined (docs/face-varying.md), like OpenSubdiv's
 // FVarLinearInterpolation. Boundaries (the default): the P-S rules in the interior, seam and
 // boundary polylines kept. All: linear everywhere (every value kept, faces averaged).

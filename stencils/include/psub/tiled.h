@@ -46,11 +46,18 @@ struct TiledTable {
     std::vector<std::uint32_t> canonical;  // per drawing position: its canonical index
     SurfaceTable surface;  // finest faces over drawing positions, ordered by their first drawn corner
 
+    // The face-varying channel's finest faces (FaceVaryingTable's, split seam faces included)
+    // over drawing positions: per corner, uvFaceVerts the drawing position of its surface
+    // vertex and uvFaceValues the channel's value, unchanged (the values are evaluated once,
+    // per level, by evaluateFaceVarying); faces ordered like `surface`'s, by their first drawn
+    // corner. Empty without a channel (setTiledFaceVaryingFaces in psub/stencils.h).
+    std::vector<std::uint32_t> uvFaceOffsets{0}, uvFaceVerts, uvFaceValues;
+
     std::size_t tileCount() const { return side.size(); }
     std::uint32_t lattice(std::size_t k) const { return side[k] << doubleSteps; }  // L
     std::uint32_t gridSize(std::size_t k) const { return side[k] + 2 * halo + 1; }  // g
     // Bytes needed to evaluate (not counting `canonical`, used only to write canonical order,
-    // nor `surface`).
+    // nor `surface` and the channel's faces, used only to draw).
     std::uint64_t bytes() const {
         return rows.bytes() + 4 * (side.size() + gather.size() + output.size() + border.size()) +
                8 * (gatherBegin.size() + borderBegin.size());
