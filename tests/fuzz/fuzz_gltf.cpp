@@ -15,7 +15,11 @@
 #include <vector>
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-    static const std::string path = "/tmp/psub-fuzz-gltf-" + std::to_string(::getpid()) + ".gltf";  // .glb or .gltf: told apart by content
+    // .glb or .gltf: told apart by content. In /dev/shm (memory) where there is one: on a disk,
+    // truncating the file for every input waits for writeback and discards (the fuzzer spent
+    // most of its time blocked in ext4 there, about 0.2 CPU).
+    static const std::string path = std::string(access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp") +
+                                    "/psub-fuzz-gltf-" + std::to_string(::getpid()) + ".gltf";
     if (std::FILE* file = std::fopen(path.c_str(), "wb")) {
         if (size) std::fwrite(data, 1, size, file);
         std::fclose(file);
