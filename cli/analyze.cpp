@@ -145,15 +145,15 @@ int runOptimizeShape(const AnalyzeOptions& options) {
 }
 
 // psub analyze --shape-tradeoff: beyond the vertex weights at n = 3 (docs/shape-rules.md, 4):
-// per least gap the best candidate, then the paper's and the shape rules' weights measured the
-// same way.
+// per least gap the best candidate, then the paper's rules, Rules::Shape's vertex weights alone
+// (its centroids' rule) and its corner rule, measured the same way.
 int runShapeTradeoff() {
     TradeoffOptions search;
     for (int k = 0; k <= 34; ++k) search.faceCorners.push_back(0.10 + 0.025 * k);  // alpha 0.10 .. 0.95
     for (int k = 0; k <= 8; ++k) search.neighbourCentres.push_back(k / 32.0);      // beta 0 .. 1/4
     search.centreSteps = 50;
     search.shareSteps = 4;
-    const std::vector<double> gaps{0.0, 0.02, 0.05, 0.08, 0.10, 0.12, 0.14, 0.16};
+    const std::vector<double> gaps{0.0, 0.02, 0.05, 0.08, 0.10, 0.12, 0.13, 0.135, 0.138, 0.139, 0.14, 0.16};
     const std::vector<ExtendedCandidate> best = shapeTradeoff(gaps, search);
     std::printf("| least gap | alpha | beta | c | d | e | lambda1 | gap | cube volume ratio | Hausdorff / diagonal | "
                 "normal spread deg | corner spread deg |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -163,12 +163,22 @@ int runShapeTradeoff() {
                     b.rule.centre.diagonal, b.lambda1, b.spectralGap, b.volumeRatio, b.hausdorff, b.normalSpreadDegrees,
                     b.cornerSpreadDegrees, b.c1 ? "" : " not C1");
     };
-    for (std::size_t k = 0; k < best.size(); ++k) row(std::to_string(gaps[k]).substr(0, 4), best[k]);
+    for (std::size_t k = 0; k < best.size(); ++k) {
+        char label[16];
+        std::snprintf(label, sizeof label, "%.3f", gaps[k]);
+        row(label, best[k]);
+    }
     for (Rules rules : {Rules::Paper, Rules::Shape}) {
         ExtendedShapeRule rule;
         rule.centre = quadVertexWeights(3, rules);
-        row(rules == Rules::Paper ? "(paper)" : "(shape: c, d, e only)", measureExtendedRule(rule, search));
+        row(rules == Rules::Paper ? "(paper)" : "(vertex weights only)", measureExtendedRule(rule, search));
     }
+    const CornerRule& corner = shapeCornerRule();  // what --rules shape gives an input corner
+    ExtendedShapeRule rule;
+    rule.centre = corner.centre;
+    rule.faceCorner = corner.faceCorner;
+    rule.neighbourCentre = corner.neighbour;
+    row("(shape: corner rule)", measureExtendedRule(rule, search));
     return 0;
 }
 

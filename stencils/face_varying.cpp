@@ -9,9 +9,9 @@ namespace psub {
 const char* uvLinearName(UvLinear linear) { return linear == UvLinear::All ? "all" : "boundaries"; }
 
 void appendFaceVaryingLevel(PerLevelTable& table, const FaceVaryingLevel& level, bool paired,
-                            UvLinear linear, Rules rules) {
+                            UvLinear linear, Rules rules, std::span<const char> inputCorners) {
     appendStepRows(table, level.faces, level.connectivity, paired || linear == UvLinear::All, false,
-                   level.split, rules);
+                   level.split, rules, inputCorners);
 }
 
 void setFaceVaryingFaces(FaceVaryingTable& table, const FaceVaryingLevel& finest) {
@@ -25,8 +25,9 @@ FaceVaryingTable buildFaceVaryingTable(const Hierarchy& hierarchy, const Mesh& m
     table.width = mesh.uv.width;
     table.perLevel.controlCount = mesh.uv.valueCount();
     FaceVaryingLevel level = faceVaryingBase(mesh, hierarchy.levels.front().connectivity);
+    const std::vector<char> corners = inputCorners(level.faces, level.connectivity, rules);
     for (std::size_t k = 1; k < hierarchy.levels.size(); ++k) {
-        appendFaceVaryingLevel(table.perLevel, level, hierarchy.preprocessed && k == 1, linear, rules);
+        appendFaceVaryingLevel(table.perLevel, level, hierarchy.preprocessed && k == 1, linear, rules, corners);
         level = refineFaceVarying(level, hierarchy.levels[k - 1]);
     }
     setFaceVaryingFaces(table, level);

@@ -51,6 +51,28 @@ VertexWeights quadVertexWeights(Index n, Rules rules) {
     return {(nd - 3) / nd, 2 / (nd * nd), 1 / (nd * nd)};
 }
 
+const CornerRule& shapeCornerRule() {
+    // `psub analyze --shape-tradeoff`'s point at a least gap of 0.138, the largest at which the
+    // cube keeps half of Catmull-Clark's volume: alpha = 0.525, beta = 0, (c, d, e) =
+    // (0.78, 0, 0.22 / 3); lambda1 0.371106, gap 0.1389 (docs/shape-rules.md, section 4).
+    static const CornerRule rule{3, {0.78, 0.0, 0.22 / 3}, 0.525, 0.0};
+    return rule;
+}
+
+bool cornerShaped(const Faces& faces, const Connectivity& c, Index v) {
+    if (c.kind[v] != VertexKind::Interior || c.valence[v] != shapeCornerRule().valence) return false;
+    for (Index h : c.outgoingOf(v))
+        if (faces.faceSize(c.faceOf[h]) != 4) return false;
+    return true;
+}
+
+std::vector<char> inputCorners(const Faces& input, const Connectivity& c, Rules rules) {
+    std::vector<char> out(input.vertexCount, 0);
+    if (rules == Rules::Shape)
+        for (Index v = 0; v < input.vertexCount; ++v) out[v] = cornerShaped(input, c, v);
+    return out;
+}
+
 VertexWeights mixedVertexWeights(Index n, Index m) {
     const double f = 1 / (1 + n / 2.0 + m / 4.0);
     return {f, f / 2, f / 4};
@@ -58,14 +80,23 @@ VertexWeights mixedVertexWeights(Index n, Index m) {
 
 namespace {
 
-// Appends the average of each face's corners.
+// Appends the average of each face's corners; a quad with corners marked in `corner` (input
+// corners under Rules::Shape) weighs them by alpha and the others by (1 - alpha) / 3, divided
+// by the sum of the four.
 void appendFaceAverages(const Faces& faces, std::span<const double> positions,
-                        std::vector<double>& out) {
+                        std::span<const char> corner, std::vector<double>& out) {
+    const double alpha = shapeCornerRule().faceCorner;
     for (Index f = 0; f < faces.faceCount(); ++f) {
-        double sum[3] = {0, 0, 0};
-        for (Index v : faces.face(f))
-            for (int axis = 0; axis < 3; ++axis) sum[axis] += positions[3 * v + axis];
-        for (int axis = 0; axis < 3; ++axis) out.push_back(sum[axis] / faces.faceSize(f));
+        double sum[3] = {0, 0, 0}, total = 0;
+        bool weighted = false;
+        if (!corner.empty() && faces.faceSize(f) == 4)
+            for (Index v : faces.face(f)) weighted = weighted || corner[v];
+        for (Index v : faces.face(f)) {
+            const double w = !weighted ? 1.0 : corner[v] ? alpha : (1 - alpha) / 3;
+            total += w;
+            for (int axis = 0; axis < 3; ++axis) sum[axis] += w * positions[3 * v + axis];
+        }
+        for (int axis = 0; axis < 3; ++axis) out.push_back(sum[axis] / total);
     }
 }
 
@@ -73,12 +104,21 @@ void appendFaceAverages(const Faces& faces, std::span<const double> positions,
 
 std::vector<double> pairedPositions(const Faces& faces, std::span<const double> positions) {
     std::vector<double> out(positions.begin(), positions.end());
-    appendFaceAverages(faces, positions, out);
+    appendFaceAverages(faces, positions, {}, out);
     return out;
 }
 
 std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
-                                std::span<const double> positions, Rules rules, bool splitBoundary) {
+                                std::span<const double> positions, Rules rules, bool splitBoundary,
+                                const std::vector<char>* inputCorners) {
+    std::vector<char> corner;
+    if (rules == Rules::Shape) {
+        const std::vector<char> own = inputCorners ? std::vector<char>{} : psub::inputCorners(faces, c, rules);
+        const std::vector<char>& input = inputCorners ? *inputCorners : own;
+        corner.resize(faces.vertexCount);
+        for (Index v = 0; v < faces.vertexCount; ++v) corner[v] = v < input.size() && input[v] && cornerShaped(faces, c, v);
+    }
+    const CornerRule& cornerRule = shapeCornerRule();
     std::vector<double> out;
     out.reserve(3 * (std::size_t(faces.vertexCount) + faces.faceCount() + c.boundaryEdgeCount));
     for (Index v = 0; v < faces.vertexCount; ++v) {
@@ -95,12 +135,14 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
             continue;
         }
         // Interior: each outgoing half-edge v->q gives the edge neighbour q and, in a quad,
-        // the diagonal opposite v.
-        double edgeSum[3] = {0, 0, 0}, diagonalSum[3] = {0, 0, 0};
-        Index quads = 0, triangles = 0;
+        // the diagonal opposite v. Edge neighbours that are input corners are summed apart.
+        double edgeSum[3] = {0, 0, 0}, cornerSum[3] = {0, 0, 0}, diagonalSum[3] = {0, 0, 0};
+        Index quads = 0, triangles = 0, cornerNeighbours = 0;
         for (Index h : c.outgoingOf(v)) {
             const Index q = faces.verts[c.next[h]];
-            for (int axis = 0; axis < 3; ++axis) edgeSum[axis] += positions[3 * q + axis];
+            const bool atCorner = !corner.empty() && corner[q];
+            cornerNeighbours += atCorner ? 1 : 0;
+            for (int axis = 0; axis < 3; ++axis) (atCorner ? cornerSum : edgeSum)[axis] += positions[3 * q + axis];
             const Index size = faces.faceSize(c.faceOf[h]);
             assert(size == 3 || size == 4);
             if (size == 3) {
@@ -112,12 +154,20 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
             for (int axis = 0; axis < 3; ++axis) diagonalSum[axis] += positions[3 * d + axis];
         }
         const Index n = c.valence[v];
-        const VertexWeights w = triangles == 0 ? quadVertexWeights(n, rules) : mixedVertexWeights(n, quads);
+        VertexWeights w = triangles == 0 ? quadVertexWeights(n, rules) : mixedVertexWeights(n, quads);
+        if (!corner.empty() && corner[v]) w = cornerRule.centre;
+        // Beside an input corner, a regular vertex weighs the corner by beta, not 1/8, and
+        // keeps the difference (a corner's neighbours are never corners: valence 3 != 4).
+        double cornerWeight = w.edge;
+        if (cornerNeighbours > 0 && triangles == 0 && n == 4) {
+            cornerWeight = cornerRule.neighbour;
+            w.centre += cornerNeighbours * (w.edge - cornerRule.neighbour);
+        }
         for (int axis = 0; axis < 3; ++axis)
-            out.push_back(w.centre * p[axis] + w.edge * edgeSum[axis] +
+            out.push_back(w.centre * p[axis] + w.edge * edgeSum[axis] + cornerWeight * cornerSum[axis] +
                           w.diagonal * diagonalSum[axis]);
     }
-    appendFaceAverages(faces, positions, out);
+    appendFaceAverages(faces, positions, corner, out);
     if (!splitBoundary) return out;
     for (Index h : c.edgeHalfedge) {
         if (c.twin[h] != kNoIndex) continue;
@@ -131,10 +181,12 @@ std::vector<double> psPositions(const Faces& faces, const Connectivity& c,
 std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,
                                          std::span<const double> parentPositions, Rules rules) {
     const Level& parent = hierarchy.levels[k - 1];
+    const Level& input = hierarchy.levels.front();
+    const std::vector<char> corners = inputCorners(input.faces, input.connectivity, rules);
     const bool paired = hierarchy.preprocessed && k == 1;
     return paired ? pairedPositions(parent.faces, parentPositions)
                   : psPositions(parent.faces, parent.connectivity, parentPositions, rules,
-                                hierarchy.splitsBoundary(k));
+                                hierarchy.splitsBoundary(k), &corners);
 }
 
 std::vector<double> refinePositions(const Hierarchy& hierarchy, std::span<const double> control,

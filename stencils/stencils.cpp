@@ -36,6 +36,27 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
         std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre, w.edge, w.diagonal);
         break;
     }
+    case RowKind::VertexCorner: {
+        const VertexWeights w = shapeCornerRule().centre;
+        std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre, w.edge, w.diagonal);
+        break;
+    }
+    case RowKind::FaceBesideCorner: {
+        const double alpha = shapeCornerRule().faceCorner, other = (1 - alpha) / 3;
+        const double sum = (n + 1) * alpha + m * other;  // k = n + 1 corners, m others
+        g.centre = g.edge = alpha / sum;
+        g.diagonal = other / sum;
+        break;
+    }
+    case RowKind::VertexBesideCorner: {
+        // A corner beside the vertex leaves its row (beta = 0) and its 1/8 goes to the centre.
+        if (shapeCornerRule().neighbour != 0)
+            throw std::logic_error("VertexBesideCorner rows carry beta = 0 only");
+        g.centre = 0.25 + (4 - n) * 0.125;
+        g.edge = 0.125;
+        g.diagonal = 0.0625;
+        break;
+    }
     }
     return g;
 }
@@ -45,7 +66,9 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
 // and, when the step splits the boundary, boundary edge i gives row oldVertices + faces + i.
 // `paired` retains every old vertex (the paired method; a face-varying channel's "all"); a
 // face marked in `seamFaces` (a face-varying seam triangle) gets the midpoint of its first two
-// corners (docs/face-varying.md).
+// corners (docs/face-varying.md). Under Rules::Shape, the parent's input corners (psub/rules.h's
+// CornerRule) change their own rows, the rows of the quads around them and those of their
+// regular neighbours.
 struct StepRows {
     const Faces& faces;
     const Connectivity& c;
@@ -53,10 +76,16 @@ struct StepRows {
     bool splitBoundary;
     std::span<const std::uint8_t> seamFaces;
     std::vector<Index> boundaryHalfedges;  // split steps: per boundary edge, in edge order
+    std::vector<char> corner;              // per parent vertex; empty when there are none
 
     StepRows(const Faces& f, const Connectivity& connectivity, bool isPaired, bool split,
-             std::span<const std::uint8_t> seams = {})
+             std::span<const std::uint8_t> seams, std::span<const char> inputCorners)
         : faces(f), c(connectivity), paired(isPaired), splitBoundary(split), seamFaces(seams) {
+        if (!paired && std::find(inputCorners.begin(), inputCorners.end(), 1) != inputCorners.end()) {
+            corner.resize(faces.vertexCount);
+            for (Index v = 0; v < inputCorners.size() && v < faces.vertexCount; ++v)
+                corner[v] = inputCorners[v] && cornerShaped(faces, c, v);
+        }
         if (!split) return;
         boundaryHalfedges.reserve(c.boundaryEdgeCount);
         for (Index h : c.edgeHalfedge)
@@ -71,9 +100,25 @@ struct StepRows {
         return d >= oldVertices() && !seamFaces.empty() && seamFaces[d - oldVertices()] != 0;
     }
 
+    bool isCorner(Index v) const { return !corner.empty() && corner[v]; }
+    std::uint32_t cornersOfQuad(std::uint32_t f) const {
+        std::uint32_t k = 0;
+        if (!corner.empty() && faces.faceSize(f) == 4)
+            for (Index v : faces.face(f)) k += corner[v] ? 1 : 0;
+        return k == 4 ? 0 : k;  // four: equal weights, the paper's row
+    }
+    std::uint32_t cornerNeighbours(Index v) const {
+        std::uint32_t j = 0;
+        if (!corner.empty())
+            for (Index h : c.outgoingOf(v)) j += corner[faces.verts[c.next[h]]] ? 1 : 0;
+        return j;
+    }
+
     GroupKey shape(std::uint32_t d) const {
         if (d >= firstEdgePoint() || seamPoint(d)) return {RowKind::BoundaryEdge, 1, 0};
         if (d >= oldVertices()) {
+            if (const std::uint32_t k = cornersOfQuad(d - oldVertices()); k > 0)
+                return {RowKind::FaceBesideCorner, k - 1, 4 - k};
             const std::uint32_t size = faces.faceSize(d - oldVertices());
             return {size == 4 ? RowKind::FaceQuad : size == 3 ? RowKind::FaceTriangle : RowKind::FacePolygon,
                     size - 1, 0};
@@ -83,7 +128,10 @@ struct StepRows {
         std::uint32_t quads = 0, triangles = 0;
         for (Index h : c.outgoingOf(d)) ++(faces.faceSize(c.faceOf[h]) == 4 ? quads : triangles);
         const std::uint32_t n = quads + triangles;
-        return triangles == 0 ? GroupKey{RowKind::VertexQuad, n, n} : GroupKey{RowKind::VertexMixed, n, quads};
+        if (triangles != 0) return {RowKind::VertexMixed, n, quads};
+        if (isCorner(d)) return {RowKind::VertexCorner, n, n};
+        if (const std::uint32_t j = n == 4 ? cornerNeighbours(d) : 0; j > 0) return {RowKind::VertexBesideCorner, n - j, n};
+        return {RowKind::VertexQuad, n, n};
     }
 
     // Sources of row d: the centre, its n edge neighbours, its m diagonals (docs/scheme.md's Pi, Pj);
@@ -101,7 +149,15 @@ struct StepRows {
             return;
         }
         if (d >= oldVertices()) {
-            for (Index v : faces.face(d - oldVertices())) *out++ = v;
+            const std::uint32_t f = d - oldVertices();
+            if (cornersOfQuad(f) > 0) {  // the input corners first
+                for (Index v : faces.face(f))
+                    if (corner[v]) *out++ = v;
+                for (Index v : faces.face(f))
+                    if (!corner[v]) *out++ = v;
+                return;
+            }
+            for (Index v : faces.face(f)) *out++ = v;
             return;
         }
         *out++ = d;
@@ -112,7 +168,10 @@ struct StepRows {
             return;
         }
         if (paired || isRetained(c.kind[d])) return;
-        for (Index h : c.outgoingOf(d)) *out++ = faces.verts[c.next[h]];
+        // Beside an input corner (VertexBesideCorner), the corner leaves the row.
+        const bool beside = !corner.empty() && std::get<0>(shape(d)) == RowKind::VertexBesideCorner;
+        for (Index h : c.outgoingOf(d))
+            if (!beside || !corner[faces.verts[c.next[h]]]) *out++ = faces.verts[c.next[h]];
         for (Index h : c.outgoingOf(d))
             if (faces.faceSize(c.faceOf[h]) == 4) *out++ = faces.verts[c.next[c.next[h]]];
     }
@@ -122,8 +181,9 @@ struct StepRows {
 
 // Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
 void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity& connectivity, bool paired,
-                    bool splitBoundary, std::span<const std::uint8_t> seamFaces, Rules rules) {
-    const StepRows step(faces, connectivity, paired, splitBoundary, seamFaces);
+                    bool splitBoundary, std::span<const std::uint8_t> seamFaces, Rules rules,
+                    std::span<const char> inputCorners) {
+    const StepRows step(faces, connectivity, paired, splitBoundary, seamFaces, inputCorners);
     const std::uint32_t childCount = step.childCount();
 
     // Pass 1: the shape of every row; groups numbered as first met, with a one-entry cache
@@ -182,8 +242,9 @@ void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity
 
 namespace {
 
-void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool splitBoundary, Rules rules) {
-    appendStepRows(table, parent.faces, parent.connectivity, paired, splitBoundary, {}, rules);
+void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool splitBoundary, Rules rules,
+                 std::span<const char> inputCorners) {
+    appendStepRows(table, parent.faces, parent.connectivity, paired, splitBoundary, {}, rules, inputCorners);
 }
 
 }  // namespace
@@ -191,9 +252,10 @@ void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool sp
 PerLevelTable buildPerLevelTable(const Hierarchy& hierarchy, Rules rules) {
     PerLevelTable table;
     table.controlCount = hierarchy.levels.front().faces.vertexCount;
+    const std::vector<char> corners = inputCorners(hierarchy.levels.front().faces, hierarchy.levels.front().connectivity, rules);
     for (std::size_t k = 1; k < hierarchy.levels.size(); ++k)
         appendLevel(table, hierarchy.levels[k - 1], hierarchy.preprocessed && k == 1,
-                    hierarchy.splitsBoundary(k), rules);
+                    hierarchy.splitsBoundary(k), rules, corners);
     return table;
 }
 
@@ -316,6 +378,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     // as its parent exists, and the parent is dropped (the peak is two levels, not all).
     out.perLevel.controlCount = mesh.faces.vertexCount;
     Level parent{mesh.faces, connectivity};
+    const std::vector<char> corners = inputCorners(mesh.faces, connectivity, options.rules);
     const int steps = options.levels + (out.preprocessed ? 1 : 0);
     // The tiled form's plan, once the first quad level exists, and its base level, kept.
     const int firstQuadLevel = out.preprocessed && steps > 0 ? 1 : 0;
@@ -329,18 +392,21 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     // The face-varying channel follows the positions level by level (docs/face-varying.md).
     const bool uv = !mesh.uv.empty() && options.boundary == Boundary::Paper;
     FaceVaryingLevel uvLevel;
+    std::vector<char> uvCorners;  // Rules::Shape's input corners of the channel's own mesh
     if (uv) {
         const auto start = Clock::now();
         out.uv.width = mesh.uv.width;
         out.uv.perLevel.controlCount = mesh.uv.valueCount();
         uvLevel = faceVaryingBase(mesh, connectivity);
+        uvCorners = inputCorners(uvLevel.faces, uvLevel.connectivity, options.rules);
         out.uvMs += ms(start);
     }
     for (int k = 1; k <= steps; ++k) {
         auto start = Clock::now();
         const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));
         if (uv) {
-            appendFaceVaryingLevel(out.uv.perLevel, uvLevel, out.preprocessed && k == 1, options.uvLinear, options.rules);
+            appendFaceVaryingLevel(out.uv.perLevel, uvLevel, out.preprocessed && k == 1, options.uvLinear, options.rules,
+                                   uvCorners);
             uvLevel = refineFaceVarying(uvLevel, parent);
             out.uvMs += ms(start);
             start = Clock::now();
@@ -349,7 +415,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         const double topologyMs = ms(start);
         out.topologyMs += topologyMs;
         start = Clock::now();
-        appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules);
+        appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules, corners);
         out.perLevelMs += ms(start);
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
         parent = std::move(child);

@@ -22,6 +22,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -133,10 +134,11 @@ struct Refined {
     std::vector<double> positions, uv;
 };
 
-Refined refineWithUv(const Mesh& mesh, int levels, Preprocess preprocess, UvLinear linear) {
+Refined refineWithUv(const Mesh& mesh, int levels, Preprocess preprocess, UvLinear linear, Rules rules = Rules::Paper) {
     const CheckedMesh checked = checkMesh(mesh);
     RefineOptions options;
     options.levels = levels;
+    options.rules = rules;
     options.preprocess = preprocess;
     options.uvLinear = linear;
     Refined out{refine(mesh, checked.connectivity, options), {}, {}};
@@ -237,16 +239,19 @@ void expectFacesFollowSurface(const Refinement& r, const std::string& what) {
 // The rule path (stencils/rules.cpp, never the table builder): each level's values from the
 // parent's with psPositions / pairedPositions over the face-varying mesh (values padded to
 // xyz), then each seam triangle's point replaced by its diagonal's midpoint.
-std::vector<double> rulePathUv(const Mesh& mesh, int levels, Preprocess mode, UvLinear linear) {
+std::vector<double> rulePathUv(const Mesh& mesh, int levels, Preprocess mode, UvLinear linear, Rules rules = Rules::Paper) {
     const CheckedMesh checked = checkMesh(mesh);
     const bool preprocess = needsPreprocessing(mesh.faces, checked.connectivity, mode);
     const Hierarchy h = refineTopology(mesh.faces, checked.connectivity, preprocess, levels);
     FaceVaryingLevel level = faceVaryingBase(mesh, checked.connectivity);
+    const std::vector<char> corners = inputCorners(level.faces, level.connectivity, rules);
     std::vector<double> xyz;
     for (std::size_t v = 0; v < mesh.uv.valueCount(); ++v) xyz.insert(xyz.end(), {mesh.uv.values[2 * v], mesh.uv.values[2 * v + 1], 0.0});
     for (std::size_t k = 1; k < h.levels.size(); ++k) {
         const bool paired = (preprocess && k == 1) || linear == UvLinear::All;
-        std::vector<double> next = paired ? pairedPositions(level.faces, xyz) : psPositions(level.faces, level.connectivity, xyz);
+        // Rules::Shape's corners: those of the channel's base level, numbered first at every level.
+        std::vector<double> next = paired ? pairedPositions(level.faces, xyz)
+                                          : psPositions(level.faces, level.connectivity, xyz, rules, false, &corners);
         for (Index f = 0; f < level.faces.faceCount(); ++f) {
             if (!level.split[f]) continue;
             const Index a = level.faces.face(f)[0], b = level.faces.face(f)[1];
@@ -434,6 +439,36 @@ TEST(FaceVarying, EveryCaseEveryLevelNoSmearAndRulePath) {
                     EXPECT_EQ(built.perLevel.indices, r.r.uv.perLevel.indices) << what;
                     EXPECT_EQ(built.faceValues, r.r.uv.faceValues) << what;
                 }
+}
+
+// Rules::Shape in the channel: the corner rule wherever the channel's own mesh has an input
+// corner (Spot's UV islands have interior values of valence 3), the table against the rule path.
+TEST(FaceVarying, ShapeRulesEqualTheRulePath) {
+    // Three quads around one interior vertex of valence 3, UVs = x, y: one island, so the
+    // channel has the corner too (the hand cases' valence-3 values all lie on seams).
+    std::string fan = "v 0 0 0\nvt 0 0\n";
+    for (int k = 0; k < 6; ++k) {
+        const double a = std::numbers::pi / 3 * k;
+        fan += "v " + std::to_string(std::cos(a)) + " " + std::to_string(std::sin(a)) + " 0.25\n";
+        fan += "vt " + std::to_string(std::cos(a)) + " " + std::to_string(std::sin(a)) + "\n";
+    }
+    fan += "f 1/1 2/2 3/3 4/4\nf 1/1 4/4 5/5 6/6\nf 1/1 6/6 7/7 2/2\n";
+    std::vector<Case> cases = handCases();
+    cases.push_back({"fan", parseObj(fan, "fan.obj")});
+    bool anyCorner = false;
+    for (const Case& c : cases)
+        for (Preprocess preprocess : {Preprocess::Auto, Preprocess::Always})
+            for (int levels : {1, 2, 3}) {
+                const std::string what = c.name + " levels " + std::to_string(levels) +
+                                         (preprocess == Preprocess::Always ? " preprocessed" : "");
+                const Refined r = refineWithUv(c.mesh, levels, preprocess, UvLinear::Boundaries, Rules::Shape);
+                for (const RowGroup& g : r.r.uv.perLevel.groups) anyCorner = anyCorner || g.kind == RowKind::VertexCorner;
+                const std::vector<double> expected = rulePathUv(c.mesh, levels, preprocess, UvLinear::Boundaries, Rules::Shape);
+                ASSERT_EQ(expected.size(), r.uv.size()) << what;
+                // Tolerance 1e-12: as in EveryCaseEveryLevelNoSmearAndRulePath.
+                for (std::size_t i = 0; i < expected.size(); ++i) ASSERT_NEAR(r.uv[i], expected[i], 1e-12) << what << " value " << i / 2;
+            }
+    EXPECT_TRUE(anyCorner);  // the corner rows were exercised
 }
 
 // The seams really split faces (the split is exercised), and the cylinder's seam keeps u = 0

@@ -35,7 +35,9 @@ TEST(ShapeExtended, QuarterAndEighthGiveTodaysTwoStepMatrix) {
             for (std::size_t k = 0; k < today.weights.size(); ++k) ASSERT_NEAR(today.weights[k], extended.weights[k], 1e-15);
             ValenceOptions options;
             options.extendedRule = ruleOf(n, w, 0.25, 0.125);
-            const ValenceReport a = analyzeValence(n, rules), b = analyzeValence(n, rules, options);
+            ValenceOptions weightsOnly;  // the vertex weights alone (Rules::Shape adds its corner rule at n = 3)
+            weightsOnly.centreWeights = w;
+            const ValenceReport a = analyzeValence(n, Rules::Paper, weightsOnly), b = analyzeValence(n, rules, options);
             EXPECT_NEAR(a.lambda1, b.lambda1, 1e-12);
             EXPECT_NEAR(a.spectralGap, b.spectralGap, 1e-12);
             EXPECT_EQ(a.c1Necessary, b.c1Necessary);
@@ -81,13 +83,19 @@ TEST(ShapeExtended, FaceAndNeighbourWeightsMoveLambda1) {
     EXPECT_GT(std::abs(betaMoved - paper), 1e-3);
 }
 
-// The experimental refinement with alpha = 1/4, beta = 1/8 is the engine's (tables and CPU
-// evaluator through compareWithCatmark), for both rule sets' weights at the cube's corners.
-TEST(ShapeExtended, RefinementMatchesTheEngineAtTheDefaults) {
+// The experimental refinement (the rule applied while composing the paper's table) is the
+// engine's (its own row kinds, tables and CPU evaluator through compareWithCatmark): with
+// alpha = 1/4, beta = 1/8 and the paper's weights for Rules::Paper, and with Rules::Shape's
+// corner rule (psub/rules.h) for Rules::Shape.
+TEST(ShapeExtended, RefinementMatchesTheEngineForBothRuleSets) {
     const Mesh cube = trapezohedron(3);
     const Connectivity connectivity = buildConnectivity(cube.faces);
+    const CornerRule& corner = shapeCornerRule();
     for (Rules rules : {Rules::Paper, Rules::Shape}) {
-        const ExtendedRefinement ps = refineExtended(cube, 4, ruleOf(3, quadVertexWeights(3, rules), 0.25, 0.125));
+        const ExtendedShapeRule rule = rules == Rules::Paper
+                                           ? ruleOf(3, quadVertexWeights(3, rules), 0.25, 0.125)
+                                           : ruleOf(corner.valence, corner.centre, corner.faceCorner, corner.neighbour);
+        const ExtendedRefinement ps = refineExtended(cube, 4, rule);
         const Fidelity engine = compareWithCatmark(cube, connectivity, 4, rules, 0);
         EXPECT_EQ(ps.faces.faceCount(), engine.psFaces);
         EXPECT_NEAR(measureMesh(ps.faces, ps.positions).volume, engine.ps.volume, 1e-9);

@@ -12,6 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
@@ -20,6 +21,7 @@
 #include <iterator>
 #include <numbers>
 #include <string>
+#include <vector>
 
 namespace psub {
 namespace {
@@ -41,7 +43,12 @@ TEST(ShapeRules, TableMeetsTheC1ConditionsWithTheStatedGapAtEveryValence3To16) {
         EXPECT_GE(w.centre, 0.0);
         EXPECT_GE(w.edge, 0.0);
         EXPECT_GE(w.diagonal, 0.0);
-        const ValenceReport shape = analyzeValence(n, Rules::Shape), paper = analyzeValence(n, Rules::Paper);
+        // The table's weights alone (at n = 3 they are those of the paired method's centroids;
+        // input corners follow the corner rule, tested below).
+        ValenceOptions weightsOnly;
+        weightsOnly.centreWeights = w;
+        const ValenceReport shape = n == 3 ? analyzeValence(n, Rules::Paper, weightsOnly) : analyzeValence(n, Rules::Shape);
+        const ValenceReport paper = analyzeValence(n, Rules::Paper);
         EXPECT_TRUE(shape.c1Necessary);
         EXPECT_TRUE(shape.characteristicMapInjective);
         // 0.12: the optimiser's constraint, or the paper's own gap where smaller (docs/shape-rules.md).
@@ -56,8 +63,36 @@ TEST(ShapeRules, TableMeetsTheC1ConditionsWithTheStatedGapAtEveryValence3To16) {
         // optimiser's finest step in c, 0.004 (docs/shape-rules.md).
         EXPECT_GT(std::abs(w.centre - quadVertexWeights(n, Rules::Paper).centre), 1e-3);
     }
-    const ValenceReport three = analyzeValence(3, Rules::Shape);
+}
+
+// The corner rule (input vertices of valence 3): the trade-off point of docs/shape-rules.md,
+// section 4, at a least gap of 0.12. analyzeValence(3, Rules::Shape) composes the engine's own
+// tables (row kinds VertexCorner, FaceBesideCorner, VertexBesideCorner); the extended analysis
+// applies the rule to the paper's table instead. Both give the same matrix, C1 with a gap of at
+// least 0.12, and lambda1 moved below the paper's.
+TEST(ShapeRules, CornerRuleKeepsC1WithTheStatedGapAndMovesLambda1) {
+    const CornerRule& corner = shapeCornerRule();
+    EXPECT_EQ(corner.valence, 3u);
+    EXPECT_NEAR(corner.centre.centre + 3 * corner.centre.edge + 3 * corner.centre.diagonal, 1.0, 1e-15);
+    ExtendedShapeRule rule;
+    rule.valence = corner.valence;
+    rule.centre = corner.centre;
+    rule.faceCorner = corner.faceCorner;
+    rule.neighbourCentre = corner.neighbour;
+    const LocalMatrix engine = psTwoStepMatrix(3, Rules::Shape), extended = psTwoStepMatrix(rule);
+    ASSERT_EQ(engine.size(), extended.size());
+    for (std::size_t k = 0; k < engine.weights.size(); ++k) ASSERT_NEAR(engine.weights[k], extended.weights[k], 1e-14) << k;
+    // By hand (test_shape_extended.cpp derives it): S(P, P) = c^2 + n d alpha + n e beta; here
+    // d = 0 and beta = 0, so 0.78^2 = 0.6084.
+    EXPECT_NEAR(engine.at(0, 0), 0.6084, 1e-14);
+    const ValenceReport three = analyzeValence(3, Rules::Shape), paper = analyzeValence(3, Rules::Paper);
+    EXPECT_TRUE(three.c1Necessary);
+    EXPECT_TRUE(three.characteristicMapInjective);
     EXPECT_GE(three.spectralGap, 0.12);
+    EXPECT_NEAR(three.spectralGap, 0.1389, 1e-4);  // section 4's table, to its last digit
+    EXPECT_LT(three.lambda1, paper.lambda1 - 0.02);
+    // Regression value: section 4's table (psub analyze --shape-tradeoff), to its last digit.
+    EXPECT_NEAR(three.lambda1, 0.371106, 1e-6);
 }
 
 // n = 3 by hand. The centre row of one step is c P + d sum Pi + e sum Pj. Two steps later the
@@ -74,7 +109,7 @@ TEST(ShapeRules, TableMeetsTheC1ConditionsWithTheStatedGapAtEveryValence3To16) {
 TEST(ShapeRules, HandCaseAtValence3) {
     const VertexWeights w = quadVertexWeights(3, Rules::Shape), p = quadVertexWeights(3, Rules::Paper);
     EXPECT_NEAR(w.centre + 3 * w.edge + 3 * w.diagonal, 1.0, 1e-15);
-    const LocalMatrix shape = psTwoStepMatrix(3, Rules::Shape), paper = psTwoStepMatrix(3, Rules::Paper);
+    const LocalMatrix shape = psTwoStepMatrix(3, w), paper = psTwoStepMatrix(3, Rules::Paper);
     const auto part = [](VertexWeights v) { return v.centre * v.centre + 1.5 * v.edge + 0.75 * v.diagonal; };
     // Paper at n = 3, (c, d, e) = (0, 2/9, 1/9): part = 0 + 1.5 * 2/9 + 0.75 * 1/9 = 5/12, and
     // S00 = c^2 + n d / 4 + n e / 8 = 0 + 1/6 + 1/24 = 5/24.
@@ -169,6 +204,80 @@ TEST(ShapeRules, TablesAndEvaluatorsEqualTheOracleOnEveryModel) {
         }
 }
 
+// The corner rule's rows, by hand: one P-S step of the cube makes quads with four corners (the
+// paper's row); the next makes quads with two cube corners, the one after quads with one.
+TEST(ShapeRules, CornerRowsCarryTheRulesWeights) {
+    const test::Loaded cube = load(test::dataPath("cube.obj"));
+    const PerLevelTable table = buildPerLevelTable(test::refine(cube, 3), Rules::Shape);
+    const double alpha = shapeCornerRule().faceCorner, other = (1 - alpha) / 3;
+    bool one = false, two = false, corner = false, beside = false;
+    for (const RowGroup& g : table.groups) {
+        EXPECT_NEAR(g.centre + g.n * g.edge + g.m * g.diagonal, 1.0, 1e-15);
+        if (g.kind == RowKind::FaceBesideCorner && g.n == 0 && g.m == 3) {
+            one = true;  // alpha and (1 - alpha) / 3 exactly: their sum is 1
+            EXPECT_NEAR(g.centre, alpha, 1e-15);
+            EXPECT_NEAR(g.diagonal, other, 1e-15);
+        }
+        if (g.kind == RowKind::FaceBesideCorner && g.n == 1 && g.m == 2) {
+            two = true;
+            EXPECT_NEAR(g.centre, alpha / (2 * alpha + 2 * other), 1e-15);
+            EXPECT_EQ(g.edge, g.centre);
+        }
+        if (g.kind == RowKind::VertexCorner) {
+            corner = true;
+            EXPECT_EQ(g.centre, 0.78);
+        }
+        if (g.kind == RowKind::VertexBesideCorner) {
+            beside = true;  // beta = 0: the corner leaves the row, its 1/8 goes to the centre
+            EXPECT_EQ(g.centre, 0.25 + (4 - g.n) * 0.125);
+            EXPECT_EQ(g.edge, 0.125);
+            EXPECT_EQ(g.diagonal, 0.0625);
+        }
+        if (g.kind == RowKind::VertexQuad) {
+            EXPECT_NE(g.n, 3u) << "a cube corner left as a plain vertex row";
+        }
+    }
+    EXPECT_TRUE(one && two && corner && beside);
+}
+
+// The VertexCorner rows of each P-S step (level 0 of a preprocessed table is the paired method).
+std::vector<std::uint32_t> cornerRows(const PerLevelTable& table, std::size_t level) {
+    std::vector<std::uint32_t> corners;
+    const StencilLevel& l = table.levels[level];
+    for (std::uint64_t g = l.groupBegin; g < l.groupEnd; ++g)
+        if (table.groups[g].kind == RowKind::VertexCorner)
+            for (std::uint64_t r = 0; r < table.groups[g].rowCount; ++r)
+                corners.push_back(table.indices[table.groups[g].indexBegin + r * table.groups[g].width]);
+    std::sort(corners.begin(), corners.end());
+    return corners;
+}
+
+// Input corners are the input's own vertices of valence 3 with quads around, at every level:
+// the cube's 8 corners (numbered 0..7, kept through every step). A tetrahedron has none: its
+// input vertices of valence 3 have triangles around, and the paired method's 4 centroids of
+// valence 3 are not input vertices.
+TEST(ShapeRules, CornersAreInputVerticesOfValence3WithQuadsAround) {
+    const test::Loaded cube = load(test::dataPath("cube.obj"));
+    const PerLevelTable quads = buildPerLevelTable(test::refine(cube, 3), Rules::Shape);
+    ASSERT_EQ(quads.levels.size(), 3u);
+    for (std::size_t level = 0; level < quads.levels.size(); ++level)
+        EXPECT_EQ(cornerRows(quads, level), (std::vector<std::uint32_t>{0, 1, 2, 3, 4, 5, 6, 7})) << "level " << level;
+    const Mesh tetrahedron = test::makeMesh({1, 1, 1, 1, -1, -1, -1, 1, -1, -1, -1, 1},
+                                            {{0, 1, 2}, {0, 2, 3}, {0, 3, 1}, {1, 3, 2}});
+    const CheckedMesh checked = checkMesh(tetrahedron);
+    const Hierarchy h = refineTopology(tetrahedron.faces, checked.connectivity, true, 3);
+    ASSERT_TRUE(h.preprocessed);
+    const PerLevelTable paired = buildPerLevelTable(h, Rules::Shape);
+    std::size_t valence3 = 0;
+    for (Index v = 0; v < h.levels[1].faces.vertexCount; ++v) valence3 += h.levels[1].connectivity.valence[v] == 3 ? 1 : 0;
+    EXPECT_EQ(valence3, 8u);
+    for (std::size_t level = 0; level < paired.levels.size(); ++level)
+        EXPECT_TRUE(cornerRows(paired, level).empty()) << "level " << level;
+    // Their rows keep the vertex weights (Rules::Shape's table at valence 3).
+    const std::vector<double> oracle = refinePositions(h, tetrahedron.positions, Rules::Shape);
+    EXPECT_NE(oracle, refinePositions(h, tetrahedron.positions, Rules::Paper));
+}
+
 TEST(ShapeRules, MovesTheCubesCornersAndTheCowsTriangleCentroids) {
     // The cube's corners (valence 3) move; so do the paired method's centroids of a triangle mesh.
     for (const char* name : {"cube.obj", "cow.obj"}) {
@@ -205,6 +314,9 @@ TEST(ShapeRules, CubeKeepsAtLeastAQuarterOfCatmullClarksVolumeThroughPsubCompare
     // 0.25: the target of the shape rules; the paper's cube keeps about 3% (docs/shape-rules.md:
     // 0.2885 and 0.0325 at n = 3, the cube).
     EXPECT_GE(volumeRatio(shape), 0.25);
+    // Beyond the vertex weights: the corner rule moves lambda1 and keeps half (docs/shape-rules.md:
+    // 0.5052 at the trade-off point).
+    EXPECT_GE(volumeRatio(shape), 0.5);
     EXPECT_LT(volumeRatio(paper), 0.05);
     EXPECT_LT(numberAfter(shape, "hausdorff"), numberAfter(paper, "hausdorff"));
 }

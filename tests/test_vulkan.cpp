@@ -170,8 +170,9 @@ TEST_P(VulkanModel, EqualsTheCpuEvaluatorOverChangingFramesBothFormsWidths3And4)
             }
 }
 
-// Rules::Shape's weights are only weights: the same kernels carry them (the CPU evaluator is
-// checked against the rule oracle for them in test_shape_rules.cpp).
+// Rules::Shape's rows carry their weights per group, the corner rule's row kinds included: the
+// same kernels carry them (the CPU evaluator is checked against the rule oracle for them in
+// test_shape_rules.cpp).
 TEST_P(VulkanModel, ShapeRulesEqualTheCpuEvaluatorBothForms) {
     const Tables t = tablesFor(GetParam(), 3, true, Boundary::Paper, Rules::Shape);
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) compareWithCpu(context(), t, form, 3, 2);

@@ -23,8 +23,9 @@ struct VertexWeights {
 // or 5..16 with all faces quads, c, d, e from a table chosen by `psub analyze --optimize-shape`
 // (docs/shape-rules.md): the surface keeps more of Catmull-Clark's shape at low valence while
 // the necessary C1 conditions hold with a spectral gap of at least 0.12 (or the paper's own,
-// if smaller). Valence 4 (regular), valence above 16, mixed vertices and the boundary follow
-// the paper.
+// if smaller). An input corner (below) follows shapeCornerRule() instead, which also changes
+// the rows of its neighbours. Valence 4 (regular, unless beside an input corner), valence
+// above 16, mixed vertices and the boundary follow the paper.
 enum class Rules { Paper, Robust, Shape };
 
 // "paper", "robust" or "shape".
@@ -35,6 +36,32 @@ const char* rulesName(Rules rules);
 // and 5..16. n >= 2.
 VertexWeights quadVertexWeights(Index n, Rules rules = Rules::Paper);
 
+// Rules::Shape at an input corner: a vertex of the input mesh that is interior, of valence 3
+// and has only quads around it, in the input and so at every level after (old vertex v keeps
+// number v, its valence and its kind through every step, the paired method's included). A
+// triangle mesh's vertices of valence 3 and the paired method's centroids are no corners and
+// keep the vertex weights (docs/shape-rules.md measures why). Three weights change
+// (docs/shape-rules.md, section 4), chosen by `psub analyze --shape-tradeoff` as the point with
+// the largest least spectral gap (0.138) at which the cube keeps half of Catmull-Clark's volume:
+// - the corner's own c, d, e (`centre`);
+// - a quad's F-vertex weighs each corner of that kind by `faceCorner` (alpha) and each other
+//   corner by (1 - alpha) / 3, divided by their sum (one such corner: alpha and (1 - alpha) / 3);
+// - a regular vertex (valence 4, all quads, not itself a corner) weighs each edge neighbour of
+//   that kind by `neighbour` (beta) instead of 1/8, the difference going to its own weight.
+// Tables carry beta = 0 only (the neighbour leaves the row; docs/shape-rules.md).
+struct CornerRule {
+    Index valence;
+    VertexWeights centre;
+    double faceCorner, neighbour;
+};
+const CornerRule& shapeCornerRule();
+
+// Interior, valence 3, only quads around: the shape of a corner (see CornerRule).
+bool cornerShaped(const Faces& faces, const Connectivity& connectivity, Index v);
+
+// Per vertex of an input mesh: 1 for an input corner under `rules` (only Rules::Shape has any).
+std::vector<char> inputCorners(const Faces& input, const Connectivity& connectivity, Rules rules);
+
 // At least one incident triangle: f = 1/(1 + n/2 + m/4), g = f/2, h = f/4 (m = quads).
 VertexWeights mixedVertexWeights(Index n, Index m);
 
@@ -44,13 +71,15 @@ inline bool isRetained(VertexKind kind) { return kind != VertexKind::Interior; }
 // The paired method's positions: old vertices unchanged, then each face's centroid.
 std::vector<double> pairedPositions(const Faces& faces, std::span<const double> positions);
 
-// One P-S step's positions: V-vertices by the rules above, then F-vertices (face averages).
-// The mesh must be P-S input (quads, triangles only on the boundary). With `splitBoundary`
+// One P-S step's positions: V-vertices by the rules above, then F-vertices (face averages;
+// Rules::Shape: weighted beside an input corner). The mesh must be P-S input (quads, triangles
+// only on the boundary). `inputCorners`: inputCorners() of the hierarchy's input (vertices
+// numbered past it are none); null: this mesh is the input. With `splitBoundary`
 // (Boundary::Smooth's split steps): a boundary vertex P between boundary neighbours a, b moves
 // to (a + 6P + b) / 8, and each boundary edge's new point (a + b) / 2 follows, in edge order.
 std::vector<double> psPositions(const Faces& faces, const Connectivity& connectivity,
                                 std::span<const double> positions, Rules rules = Rules::Paper,
-                                bool splitBoundary = false);
+                                bool splitBoundary = false, const std::vector<char>* inputCorners = nullptr);
 
 // Positions of hierarchy.levels[k] from those of levels[k-1] (paired method or P-S step).
 std::vector<double> refineLevelPositions(const Hierarchy& hierarchy, std::size_t k,

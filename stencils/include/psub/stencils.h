@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <vector>
 
 namespace psub {
@@ -59,9 +60,10 @@ enum class UvLinear { Boundaries, All };
 const char* uvLinearName(UvLinear linear);
 
 // The channel's rows of one step from `level` (the paired method's when `paired`), appended
-// to `table` as one StencilLevel over face-varying vertices.
+// to `table` as one StencilLevel over face-varying vertices. `inputCorners`: Rules::Shape's
+// input corners of the channel's base level (psub/rules.h's inputCorners()).
 void appendFaceVaryingLevel(PerLevelTable& table, const FaceVaryingLevel& level, bool paired,
-                            UvLinear linear, Rules rules = Rules::Paper);
+                            UvLinear linear, Rules rules, std::span<const char> inputCorners);
 
 // The finest level's faces of the channel, with the position vertex and value of each corner.
 void setFaceVaryingFaces(FaceVaryingTable& table, const FaceVaryingLevel& finest);

@@ -19,6 +19,12 @@ enum class RowKind : std::uint8_t {
     // Boundary::Smooth's split steps (beyond the paper): the cubic B-spline curve rules.
     BoundaryVertex,  // P, its two boundary neighbours: (a + 6 P + b) / 8
     BoundaryEdge,    // the new point of a boundary edge a b: (a + b) / 2
+    // Rules::Shape next to an input corner (psub/rules.h's CornerRule; docs/shape-rules.md).
+    VertexCorner,        // the corner itself: P, 3 edge neighbours, 3 diagonals; its c, d, e
+    FaceBesideCorner,    // a quad with k = 1..3 input corners: those first (P and n = k - 1),
+                         // then the m = 4 - k others; alpha / s and (1 - alpha) / 3 / s
+    VertexBesideCorner,  // a regular vertex beside j input corners: P, the n = 4 - j other edge
+                         // neighbours, the 4 diagonals; 1/4 + j (1/8 - beta), 1/8, 1/16 (beta = 0)
 };
 
 // A run of rows of one kind and shape within one level. Row r of the group has `width`
