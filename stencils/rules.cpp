@@ -67,9 +67,10 @@ bool cornerShaped(const Faces& faces, const Connectivity& c, Index v) {
 }
 
 std::vector<char> inputCorners(const Faces& input, const Connectivity& c, Rules rules) {
-    std::vector<char> out(input.vertexCount, 0);
-    if (rules == Rules::Shape)
-        for (Index v = 0; v < input.vertexCount; ++v) out[v] = cornerShaped(input, c, v);
+    std::vector<char> out;
+    if (rules != Rules::Shape) return out;  // none: nothing allocated
+    out.resize(input.vertexCount);
+    for (Index v = 0; v < input.vertexCount; ++v) out[v] = cornerShaped(input, c, v);
     return out;
 }
 

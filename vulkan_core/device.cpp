@@ -308,6 +308,17 @@ std::size_t choose(const std::vector<Candidate>& list, const std::string& select
     return best;
 }
 
+// The largest single allocation the device allows (Vulkan 1.1's maintenance3 property).
+VkDeviceSize maxAllocationSize(VkPhysicalDevice physical) {
+    VkPhysicalDeviceMaintenance3Properties maintenance3{};
+    maintenance3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
+    VkPhysicalDeviceProperties2 properties2{};
+    properties2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+    properties2.pNext = &maintenance3;
+    vkGetPhysicalDeviceProperties2(physical, &properties2);
+    return maintenance3.maxMemoryAllocationSize;
+}
+
 }  // namespace
 
 VulkanContext::Impl::~Impl() {
@@ -365,13 +376,7 @@ VulkanContext::VulkanContext(const VulkanOptions& options) : impl_(std::make_uni
     c.queueFamily = chosen.family;
     c.timestampValidBits = chosen.timestampBits;
     vkGetPhysicalDeviceMemoryProperties(c.physical, &c.memory);
-    VkPhysicalDeviceMaintenance3Properties maintenance3{};
-    maintenance3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
-    VkPhysicalDeviceProperties2 properties2{};
-    properties2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-    properties2.pNext = &maintenance3;
-    vkGetPhysicalDeviceProperties2(c.physical, &properties2);
-    c.maxAllocation = maintenance3.maxMemoryAllocationSize;
+    c.maxAllocation = maxAllocationSize(c.physical);
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo queueInfo{};
@@ -413,13 +418,7 @@ VulkanContext::VulkanContext(const VulkanDeviceHandles& adopted) : impl_(std::ma
                           c.properties.deviceName + " has no compute");
     c.timestampValidBits = families[c.queueFamily].timestampValidBits;
     vkGetPhysicalDeviceMemoryProperties(c.physical, &c.memory);
-    VkPhysicalDeviceMaintenance3Properties maintenance3{};
-    maintenance3.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES;
-    VkPhysicalDeviceProperties2 properties2{};
-    properties2.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
-    properties2.pNext = &maintenance3;
-    vkGetPhysicalDeviceProperties2(c.physical, &properties2);
-    c.maxAllocation = maintenance3.maxMemoryAllocationSize;
+    c.maxAllocation = maxAllocationSize(c.physical);
 }
 
 VulkanContext::~VulkanContext() = default;

@@ -59,7 +59,8 @@ const CornerRule& shapeCornerRule();
 // Interior, valence 3, only quads around: the shape of a corner (see CornerRule).
 bool cornerShaped(const Faces& faces, const Connectivity& connectivity, Index v);
 
-// Per vertex of an input mesh: 1 for an input corner under `rules` (only Rules::Shape has any).
+// Per vertex of an input mesh: 1 for an input corner under `rules`; empty for the rule sets
+// without corners (all but Rules::Shape).
 std::vector<char> inputCorners(const Faces& input, const Connectivity& connectivity, Rules rules);
 
 // At least one incident triangle: f = 1/(1 + n/2 + m/4), g = f/2, h = f/4 (m = quads).
