@@ -1,6 +1,7 @@
-// Beyond the vertex weights (experimental, analysis only): refinement with an ExtendedShapeRule
-// (F-vertex and edge-neighbour weights next to an extraordinary vertex) and the search that
-// gives the trade-off of the cube's volume against the C1 margin at valence 3.
+// Beyond the vertex weights: refinement with an ExtendedShapeRule (F-vertex and edge-neighbour
+// weights next to an extraordinary vertex, applied to the paper's table) and the search that
+// gives the trade-off of the cube's volume against the C1 margin at valence 3. The engine carries
+// one point of it as Rules::Shape's corner rule, with its own row kinds (psub/rules.h).
 #include "local_detail.h"
 
 #include "psub/analysis.h"

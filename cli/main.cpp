@@ -201,7 +201,7 @@ int main(int argc, char** argv) {
             "--optimize-shape: largest normal spread (degrees) after 10 two-step levels", 30);
     an->add_flag("--shape-tradeoff", analyze.shapeTradeoff,
                  "instead: at valence 3, the cube's best volume ratio per least spectral gap with F-vertex and "
-                 "edge-neighbour weights beside c, d, e (experimental, analysis only; docs/shape-rules.md)");
+                 "edge-neighbour weights beside c, d, e; --rules shape's corner rule is one of its points (docs/shape-rules.md)");
     addInteger(an, "--boundary-levels", analyze.boundaryLevels, 1, 16, "P-S steps of --boundary-aspect", 11);
     an->footer("For an interior vertex of valence n surrounded by quads, builds the two-step P-S matrix from the\n"
                "engine's stencil tables, and Catmull-Clark's from OpenSubdiv's. The paper's rules fail C1 at\n"

@@ -1,4 +1,4 @@
-// Beyond the vertex weights (experimental, analysis only): the F-vertex weight alpha and the
+// Beyond the vertex weights (the analysis's search): the F-vertex weight alpha and the
 // edge-neighbour weight beta next to an extraordinary vertex. With alpha = 1/4 and beta = 1/8
 // the extended analysis is today's; a hand-derived entry; alpha moves lambda1; the experimental
 // refinement agrees with the engine's; one point of the n = 3 trade-off curve recomputed.

@@ -312,7 +312,7 @@ TEST(ShapeRules, CubeKeepsAtLeastAQuarterOfCatmullClarksVolumeThroughPsubCompare
     const std::string shape = compareJson("shape"), paper = compareJson("paper");
     EXPECT_NE(shape.find("\"rules\": \"shape\""), std::string::npos);
     // 0.25: the target of the shape rules; the paper's cube keeps about 3% (docs/shape-rules.md:
-    // 0.2885 and 0.0325 at n = 3, the cube).
+    // 0.5052 and 0.0325 at n = 3, the cube).
     EXPECT_GE(volumeRatio(shape), 0.25);
     // Beyond the vertex weights: the corner rule moves lambda1 and keeps half (docs/shape-rules.md:
     // 0.5052 at the trade-off point).

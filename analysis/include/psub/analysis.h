@@ -89,7 +89,7 @@ std::vector<std::complex<double>> eigenvalues(const LocalMatrix& matrix);
 // ---------------------------------------------------------------------------------------
 // Smoothness at one valence
 
-// Beyond the vertex weights (experimental, analysis only; see shapeTradeoff below).
+// Beyond the vertex weights (see shapeTradeoff below; Rules::Shape's corner rule is one point).
 // Rules next to an extraordinary interior vertex P of valence n with quads around it, which
 // reach the modes k != 0 and so move lambda1 itself. A "corner of valence n" below is a vertex
 // whose table row is a VertexQuad row of valence n.
@@ -256,7 +256,8 @@ ShapeCandidate optimizeShapeWeights(Index valence, VertexWeights valence3, const
 double paperSpectralGap(Index valence);
 
 // ---------------------------------------------------------------------------------------
-// Beyond the vertex weights (experimental, analysis only: no evaluator carries these rules).
+// Beyond the vertex weights: any such rule, applied while composing the paper's table (the
+// engine's tables carry one point, Rules::Shape's corner rule, with their own row kinds).
 // ExtendedShapeRule (above, before ValenceOptions) says what these rules are.
 
 // The two-step matrix with `rule` applied to the paper's per-level table while composing it
