@@ -208,8 +208,9 @@ struct PsubRun {
 };
 
 // Leak detection off in sanitizer builds (no effect elsewhere): Mesa's lavapipe keeps a few
-// allocations until exit.
-inline constexpr const char* kNoLeakCheck = "ASAN_OPTIONS=detect_leaks=0";
+// allocations until exit. The sanitizer stage preloads lavapipe (scripts/setup.sh), so a child
+// that replaces ASAN_OPTIONS must keep ASan's check of the library order off too.
+inline constexpr const char* kNoLeakCheck = "ASAN_OPTIONS=detect_leaks=0:verify_asan_link_order=0";
 
 // How runPsub runs psub.
 struct PsubHow {

@@ -398,7 +398,7 @@ struct PsubRun {
 
 PsubRun runPsub(const std::string& arguments) {
     const fs::path log = fs::temp_directory_path() / ("psub_texture_log_" + std::to_string(::getpid()));
-    const std::string sanitizer = kSanitized ? "ASAN_OPTIONS=detect_leaks=0 " : "";
+    const std::string sanitizer = kSanitized ? std::string(test::kNoLeakCheck) + " " : "";
     const std::string command = sanitizer + PSUB_EXE + std::string(" ") + arguments + " >" + log.string() + " 2>&1";
     const int status = std::system(command.c_str());
     PsubRun run;
