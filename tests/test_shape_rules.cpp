@@ -66,7 +66,7 @@ TEST(ShapeRules, TableMeetsTheC1ConditionsWithTheStatedGapAtEveryValence3To16) {
 }
 
 // The corner rule (input vertices of valence 3): the trade-off point of docs/shape-rules.md,
-// section 4, at a least gap of 0.12. analyzeValence(3, Rules::Shape) composes the engine's own
+// section 4, at a least gap of 0.138. analyzeValence(3, Rules::Shape) composes the engine's own
 // tables (row kinds VertexCorner, FaceBesideCorner, VertexBesideCorner); the extended analysis
 // applies the rule to the paper's table instead. Both give the same matrix, C1 with a gap of at
 // least 0.12, and lambda1 moved below the paper's.
