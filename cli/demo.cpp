@@ -127,7 +127,11 @@ void printVulkanFrames(const Refinement& r, const Loaded& loaded) {
 }
 
 void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<double>& rulePositions) {
-    const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, {levels, Preprocess::Auto, true, {}});
+    RefineOptions options;
+    options.levels = levels;
+    options.factorized = true;
+    options.tiled = true;
+    const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
     const double refined = r.perLevel.refinedCount();
     std::printf("\nStencil tables (built once; topology %.1f ms):\n", r.topologyMs);
     std::printf("  per-level   %10llu rows %11llu indices %9.1f MiB %6.1f B/vertex  built in %.1f ms\n",
@@ -136,19 +140,28 @@ void printTablesAndFrames(const Loaded& loaded, int levels, const std::vector<do
     std::printf("  factorized  %10u rows %11llu entries %9.1f MiB %6.1f B/vertex  built in %.1f ms\n",
                 r.factorized.rowCount(), (unsigned long long)r.factorized.indices.size(),
                 double(r.factorized.bytes()) / 1048576, double(r.factorized.bytes()) / refined, r.factorizedMs);
+    const double fallbackShare = double(r.tiled.refinedCount - r.tiled.fallbackBegin) / refined;
+    std::printf("  tiled       %10zu tiles, %5.1f%% of the points from fallback rows %9.1f MiB %6.1f B/vertex  "
+                "built in %.1f ms\n",
+                r.tiled.tileCount(), 100 * fallbackShare, double(r.tiled.bytes()) / 1048576,
+                double(r.tiled.bytes()) / refined, r.tiledMs);
 
     std::printf("\nPer frame (a wave animates the %u control points; float xyz, all cores):\n",
                 r.perLevel.controlCount);
-    std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(r.perLevel.refinedCount()));
-    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
+    std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(r.perLevel.refinedCount())),
+        canonical(out.size());
+    for (TableForm form : {TableForm::PerLevel, TableForm::Factorized, TableForm::Tiled}) {
         const std::unique_ptr<Evaluator> evaluator = makeEvaluator(Backend::Cpu, tablesOf(r), form, nullptr);
         const std::vector<double> frameMs = timeWaveFrames(*evaluator, loaded.mesh.positions, control, out);
-        // The rest pose once more, against the readable rule path.
+        // The rest pose once more, against the readable rule path (the tiled form's drawing
+        // order put back into the canonical order first, outside the timed frames).
         std::copy(loaded.mesh.positions.begin(), loaded.mesh.positions.end(), control.begin());
         evaluator->evaluate(control, out);
+        if (form == TableForm::Tiled) toCanonical<float>(r.tiled, out, canonical, 3);
         std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (%s)  max |table - rules| = %.2g\n",
-                    form == TableForm::PerLevel ? "per-level" : "factorized", frameMs[frameMs.size() / 2],
-                    frameMs.front(), evaluator->device().c_str(), largestDifference(out, rulePositions));
+                    form == TableForm::PerLevel ? "per-level" : form == TableForm::Factorized ? "factorized" : "tiled",
+                    frameMs[frameMs.size() / 2], frameMs.front(), evaluator->device().c_str(),
+                    largestDifference(form == TableForm::Tiled ? canonical : out, rulePositions));
     }
     printVulkanFrames(r, loaded);
 }

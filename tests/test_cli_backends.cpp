@@ -27,17 +27,21 @@ TEST_F(CliBackends, DemoOnBadInputPrintsOnlyTheErrorLine) {
     refused("demo --model bad.obj --levels 1", 1, {"bad.obj"});
 }
 
-TEST_F(CliBackends, DemoTimesBothCpuFormsAndComparesVulkan) {
+TEST_F(CliBackends, DemoTimesTheCpuFormsAndComparesVulkan) {
     const Run run = psub("demo --model " + test::quoted(kCube) + " --levels 2", 300);
     ASSERT_EQ(run.status, 0) << run.err;
     EXPECT_EQ(run.out.find("PSub demo: "), 0u) << run.out;
-    // The CPU lines name their backend as the contract's device() does ("CPU, N threads").
-    EXPECT_EQ(countOf(run.out, "(CPU, "), 2) << run.out;
+    // The CPU lines (per-level, factorized, tiled) name their backend as the contract's device()
+    // does ("CPU, N threads").
+    EXPECT_EQ(countOf(run.out, "(CPU, "), 3) << run.out;
+    EXPECT_TRUE(contains(run.out, "% of the points from fallback rows")) << run.out;
     // Tables against the readable rule path in float: coordinates of the cube are within 1, so a
     // float result is within a few units of 2^-24 * 1 = 6e-8 per level; 1e-5 leaves wide margin.
-    const std::size_t perLevel = run.out.find("  per-level   median");
-    ASSERT_NE(perLevel, std::string::npos) << run.out;
-    EXPECT_LT(numberAfter(run.out.substr(perLevel), "max |table - rules| = "), 1e-5) << run.out;
+    for (const char* line : {"  per-level   median", "  factorized  median", "  tiled       median"}) {
+        const std::size_t at = run.out.find(line);
+        ASSERT_NE(at, std::string::npos) << line << "\n" << run.out;
+        EXPECT_LT(numberAfter(run.out.substr(at), "max |table - rules| = "), 1e-5) << line << "\n" << run.out;
+    }
     if (contains(run.out, "vulkan      unavailable: ") && noVulkanAllowed()) GTEST_SKIP() << run.out;
     // Vulkan and CPU both in float on the same tables: the same 1e-5 bound (derived above).
     EXPECT_LT(numberAfter(run.out, "max |vulkan - cpu| = "), 1e-5) << run.out;
