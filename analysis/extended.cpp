@@ -88,6 +88,15 @@ double cornerSpread(const Faces& faces, std::span<const double> p) {
 
 }  // namespace
 
+ExtendedShapeRule extendedRuleOf(const CornerRule& corner) {
+    ExtendedShapeRule rule;
+    rule.valence = corner.valence;
+    rule.centre = corner.centre;
+    rule.faceCorner = corner.faceCorner;
+    rule.neighbourCentre = corner.neighbour;
+    return rule;
+}
+
 ExtendedRefinement refineExtended(const Mesh& mesh, int psSteps, const ExtendedShapeRule& rule) {
     return QuadRefinement(mesh, psSteps).apply(mesh, rule);
 }

@@ -173,12 +173,8 @@ int runShapeTradeoff() {
         rule.centre = quadVertexWeights(3, rules);
         row(rules == Rules::Paper ? "(paper)" : "(vertex weights only)", measureExtendedRule(rule, search));
     }
-    const CornerRule& corner = shapeCornerRule();  // what --rules shape gives an input corner
-    ExtendedShapeRule rule;
-    rule.centre = corner.centre;
-    rule.faceCorner = corner.faceCorner;
-    rule.neighbourCentre = corner.neighbour;
-    row("(shape: corner rule)", measureExtendedRule(rule, search));
+    // What --rules shape gives an input corner.
+    row("(shape: corner rule)", measureExtendedRule(extendedRuleOf(shapeCornerRule()), search));
     return 0;
 }
 

@@ -90,11 +90,9 @@ TEST(ShapeExtended, FaceAndNeighbourWeightsMoveLambda1) {
 TEST(ShapeExtended, RefinementMatchesTheEngineForBothRuleSets) {
     const Mesh cube = trapezohedron(3);
     const Connectivity connectivity = buildConnectivity(cube.faces);
-    const CornerRule& corner = shapeCornerRule();
     for (Rules rules : {Rules::Paper, Rules::Shape}) {
-        const ExtendedShapeRule rule = rules == Rules::Paper
-                                           ? ruleOf(3, quadVertexWeights(3, rules), 0.25, 0.125)
-                                           : ruleOf(corner.valence, corner.centre, corner.faceCorner, corner.neighbour);
+        const ExtendedShapeRule rule = rules == Rules::Paper ? ruleOf(3, quadVertexWeights(3, rules), 0.25, 0.125)
+                                                             : extendedRuleOf(shapeCornerRule());
         const ExtendedRefinement ps = refineExtended(cube, 4, rule);
         const Fidelity engine = compareWithCatmark(cube, connectivity, 4, rules, 0);
         EXPECT_EQ(ps.faces.faceCount(), engine.psFaces);

@@ -74,12 +74,7 @@ TEST(ShapeRules, CornerRuleKeepsC1WithTheStatedGapAndMovesLambda1) {
     const CornerRule& corner = shapeCornerRule();
     EXPECT_EQ(corner.valence, 3u);
     EXPECT_NEAR(corner.centre.centre + 3 * corner.centre.edge + 3 * corner.centre.diagonal, 1.0, 1e-15);
-    ExtendedShapeRule rule;
-    rule.valence = corner.valence;
-    rule.centre = corner.centre;
-    rule.faceCorner = corner.faceCorner;
-    rule.neighbourCentre = corner.neighbour;
-    const LocalMatrix engine = psTwoStepMatrix(3, Rules::Shape), extended = psTwoStepMatrix(rule);
+    const LocalMatrix engine = psTwoStepMatrix(3, Rules::Shape), extended = psTwoStepMatrix(extendedRuleOf(corner));
     ASSERT_EQ(engine.size(), extended.size());
     for (std::size_t k = 0; k < engine.weights.size(); ++k) ASSERT_NEAR(engine.weights[k], extended.weights[k], 1e-14) << k;
     // By hand (test_shape_extended.cpp derives it): S(P, P) = c^2 + n d alpha + n e beta; here

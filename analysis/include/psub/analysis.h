@@ -105,6 +105,9 @@ struct ExtendedShapeRule {
     double neighbourCentre = 0.125;
 };
 
+// Rules::Shape's corner rule (psub/rules.h) as an extended rule: what its tables carry.
+ExtendedShapeRule extendedRuleOf(const CornerRule& corner);
+
 struct ValenceOptions {
     int characteristicRings = 8;  // rings of the characteristic map's control net, >= 4
     int tangentLevels = 10;       // two-step levels of the tangent-plane check, >= 1
