@@ -168,19 +168,24 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
     }
     if (!context) return;
     const std::size_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
-    std::vector<float> control(3 * controlCount), out(3 * refinedCount);
+    std::vector<float> control(3 * controlCount), out(3 * refinedCount), canonical;
     for (TableForm form : forms) {
         Record r = psubRecord(model, levels, k, refinement, form, "psub-vulkan", refinement.topologyMs,
                               refinement.perLevelMs, refinement.factorizedMs);
         r.threads = 0;  // the driver's own threads
         progress.show(label + ": " + r.evaluator + " (" + context->deviceName() + ")");
         try {
-            VulkanEvaluator evaluator(*context, refinement.perLevel, refinement.factorized, refinement.surface, form, 3);
+            const std::unique_ptr<Evaluator> evaluator = makeVulkanEvaluator(*context, tablesOf(refinement), form);
             r.timing = timeFrames(
                 frames, [&](int frame) { animation.write(frame, control.data(), 3); },
-                [&] { evaluator.evaluate(control, {}); });
+                [&] { evaluator->evaluate(control, {}); });
             animation.writeRest(control.data(), 3);
-            evaluator.evaluate(control, out);
+            evaluator->evaluate(control, out);
+            if (form == TableForm::Tiled) {  // drawing order -> canonical, outside the timing
+                canonical.resize(out.size());
+                toCanonical<float>(refinement.tiled, out, canonical, 3);
+                out.swap(canonical);
+            }
         } catch (const std::exception& e) {
             warnings.push_back(model.name + " " + r.evaluator + ": " + e.what());
             continue;
@@ -295,7 +300,6 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
         }
     tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN
-    forms.pop_back();  // no tiled form on Vulkan yet
     benchVulkan(model, levels, k, refinement, forms, animation, reference, shape, frames, progress, label, records,
                 warnings);
 #endif

@@ -47,7 +47,7 @@ double msBetween(Clock::time_point a, Clock::time_point b) {
 // Beyond this many refined faces playback is refused (memory; nobody plays it in real time).
 constexpr std::uint64_t kMaxFaces = 64ull << 20;
 
-// --form: the CPU evaluator's table form (PlayOptions::form).
+// --form: the evaluator's table form (PlayOptions::form).
 constexpr int kFormAuto = 0, kFormPerLevel = 1, kFormFactorized = 2, kFormTiled = 3;
 
 bool isGltf(const std::string& path) {
@@ -197,7 +197,7 @@ struct Playback {
     bool textured = false;  // frames are drawn with textureImage
     std::optional<Verifier> verifier;
     std::string device;
-    TableForm form = TableForm::PerLevel;  // the CPU evaluator's; Tiled writes drawing order
+    TableForm form = TableForm::PerLevel;  // the evaluator's; Tiled writes drawing order
     std::string formReason;                // why auto chose it, for the summary
     std::vector<float> canonical;          // the tiled form's output in canonical order (--verify)
 
@@ -290,8 +290,8 @@ void refineAnimated(Playback& p) {
     options.levels = o.levels;
     options.rules = o.rules;
     options.boundary = o.boundary;
-    options.factorized = o.backend == Backend::Cpu && o.form == kFormFactorized;
-    options.tiled = o.backend == Backend::Cpu && (o.form == kFormAuto || o.form == kFormTiled);
+    options.factorized = o.form == kFormFactorized;
+    options.tiled = o.form == kFormTiled || (o.form == kFormAuto && o.backend == Backend::Cpu);
     p.refinement = refine(mesh, connectivity, options);
     if (o.verify) {
         Verifier v{refineTopology(mesh.faces, connectivity, preprocess, o.levels, {}, o.boundary), o.rules, {}, 0, 0};
@@ -316,7 +316,8 @@ double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& co
     return ms[ms.size() / 2];
 }
 
-// The CPU table form: the forced one, or (auto) the tiled form when it has tiles and a quick
+// The table form: the forced one; or (auto) on Vulkan the per-level rows (the tile kernel is
+// slower on lavapipe, bench/README.md), on the CPU the tiled form when it has tiles and a quick
 // timing of both on the rest pose finds it faster than the per-level rows (on meshes whose
 // finest points come mostly from the fallback it is slower; docs/tiled.md). Textured or not:
 // the tiled form draws the texture with its own faces (TiledTable::uvFace...).
@@ -326,6 +327,10 @@ void chooseForm(Playback& p) {
         p.form = p.o.form == kFormTiled ? TableForm::Tiled
                  : p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
         p.formReason = "forced";
+        return;
+    }
+    if (p.o.backend != Backend::Cpu) {
+        p.formReason = "auto: per-level on Vulkan";
         return;
     }
     if (r.tiled.tileCount() == 0) {
@@ -348,12 +353,12 @@ void chooseForm(Playback& p) {
 int prepare(Playback& p) {
     const PlayOptions& o = p.o;
     const Refinement& r = p.refinement;
+    chooseForm(p);
 #if PSUB_HAVE_VULKAN
     if (o.backend == Backend::Vulkan || p.rendering()) {
         try {
             p.context = std::make_unique<VulkanContext>();
-            if (o.backend == Backend::Vulkan)
-                p.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, p.context.get());
+            if (o.backend == Backend::Vulkan) p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, p.context.get());
         } catch (const VulkanError& e) {
             std::fprintf(stderr, "psub: error: play: %s\n", e.what());
             return 1;
@@ -371,7 +376,6 @@ int prepare(Playback& p) {
         return 1;
     }
 #endif
-    if (o.backend == Backend::Cpu) chooseForm(p);
     if (p.form == TableForm::Tiled) p.canonical.resize(p.refined.size());
 #if PSUB_HAVE_VULKAN
     if (!p.evaluator)
@@ -447,9 +451,8 @@ void addValidation(const Playback& p, Json& json) {
 #endif
 }
 
-// The CPU evaluator's table form as --form spells it; "" on Vulkan.
+// The evaluator's table form as --form spells it.
 const char* formName(const Playback& p) {
-    if (p.o.backend != Backend::Cpu) return "";
     return p.form == TableForm::Tiled ? "tiled" : p.form == TableForm::Factorized ? "factorized" : "per-level";
 }
 
@@ -472,7 +475,7 @@ void report(const Playback& p, const Timings& t) {
     std::printf("%s: %s, %d P-S step%s: %u control points -> %llu faces, %u vertices; %s on %s\n", o.input.c_str(),
                 p.animated.name.c_str(), o.levels, o.levels == 1 ? "" : "s", p.animated.mesh.faces.vertexCount,
                 (unsigned long long)faces, p.refinement.perLevel.refinedCount(), backend, p.device.c_str());
-    if (p.o.backend == Backend::Cpu) std::printf("Table form: %s (%s)\n", formName(p), p.formReason.c_str());
+    std::printf("Table form: %s (%s)\n", formName(p), p.formReason.c_str());
     const Summary frame = summarize(t.frames);
     std::printf("%zu frames: %.1f frames per second (frame time median %.3f ms, p95 %.3f, max %.3f)%s\n\n", t.frames.size(),
                 framesPerSecond(t), frame.median, frame.p95, frame.max,
@@ -514,8 +517,8 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
     addChoice(pl, "--form", o.form, kPlayForms,
-              "CPU table form: auto (the tiled form when a quick timing at load finds it faster than the "
-              "per-level rows), per-level, factorized or tiled",
+              "table form: auto (on the CPU the tiled form when a quick timing at load finds it faster than "
+              "the per-level rows; on Vulkan per-level), per-level, factorized or tiled",
               "auto");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");

@@ -37,7 +37,7 @@ struct PlayOptions {
     std::string texture;        // with --render: base-colour image sampled with the mesh's UVs
     bool verify = false;        // compare each frame with the rule oracle from scratch
     bool json = false;
-    int form = 0;               // CPU table form: 0 auto, 1 per-level, 2 factorized, 3 tiled (kPlayForms)
+    int form = 0;               // table form (either backend): 0 auto, 1 per-level, 2 factorized, 3 tiled (kPlayForms)
 };
 
 // The animated control mesh (also psub view's).

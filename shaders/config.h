@@ -19,9 +19,9 @@
 // the chunk being dispatched).
 #define PSUB_BINDING_SOURCE 0        // PSUB_BINDING_SOURCE + w, w < PSUB_VERTEX_WINDOWS
 #define PSUB_BINDING_DESTINATION 4   // PSUB_BINDING_DESTINATION + w
-#define PSUB_BINDING_TABLE_A 8       // level: group records; CSR kernels: chunk-relative offsets
-#define PSUB_BINDING_TABLE_B 9       // level: row words (as TABLE_C); CSR kernels: column indices
-#define PSUB_BINDING_TABLE_C 10      // level: row words (sources, destination); factorized: weights
+#define PSUB_BINDING_TABLE_A 8       // level: group records; CSR kernels: chunk-relative offsets; tile: block records
+#define PSUB_BINDING_TABLE_B 9       // level: row words (as TABLE_C); CSR kernels: column indices; tile: gathered vertices
+#define PSUB_BINDING_TABLE_C 10      // level: row words (sources, destination); factorized: weights; tile: border positions
 // The same input windows and table windows again as uniform texel buffers (read with
 // texelFetch when PSUB_SPEC_TEXELS is on): the input as R32G32B32A32_SFLOAT when its stride is
 // 4 floats, else R32_SFLOAT (one texel per float); each table as R32_UINT, or as
@@ -48,14 +48,17 @@
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once
+//                      (tile kernel: blocks, one workgroup each)
 //   rowBase            the first row's element number in the output (CSR kernels)
 //   groupBase          level kernel: this dispatch's group record in the TABLE_A window;
-//                      vertex normals, fixed layout: the input element that holds zero
+//                      vertex normals, fixed layout: the input element that holds zero;
+//                      tile kernel: the double steps t
 //   groupCount         level kernel: 1 (one group per dispatch); vertex normals, fixed
-//                      layout: uvec4s of words per vertex (2)
+//                      layout: uvec4s of words per vertex (2); tile kernel: the halo
 //   tableBase          CSR kernels: first offset in the TABLE_A window; face normals of
 //                      quads and vertex normals of the fixed layout: first word of the
-//                      dispatch in the TABLE_B window (a multiple of 4)
+//                      dispatch in the TABLE_B window (a multiple of 4); tile kernel: the
+//                      dispatch's first block record in the TABLE_A window
 //   sourceWindowSize   elements per input window (when windowed)
 //   destinationWindowSize
 //   pad
@@ -83,5 +86,30 @@
     float edge;                                                                                \
     float diagonal;                                                                            \
     uint pad;
+
+// The tile kernel (tile.comp): one workgroup computes a block of at most PSUB_TILE_BLOCK x
+// PSUB_TILE_BLOCK lattice intervals of one tile, in workgroup-shared grids of at most
+// PSUB_TILE_GRID x PSUB_TILE_GRID points (the largest grid any of its steps keeps, t <= 3:
+// 12.3 KiB of vec4 with the quincunx level's two grids, under the 16 KiB every device has).
+// A block record (std430, 32 bytes, read as two uvec4):
+//   gatherFirst   the block's level-B window's first vertex in the TABLE_B window (the tile's
+//                 gathered grid, row (Y0 >> t), column (X0 >> t))
+//   gridSide      g, the tile's gathered grid side (the window's row stride)
+//   lattice       L, the tile's lattice side
+//   blockSide     M = min(L, PSUB_TILE_BLOCK), a multiple of 2^t
+//   origin        X0 | Y0 << 16: the block's first lattice point in the tile
+//   outputBegin, outputEnd   the tile's drawing positions (inner points from outputBegin)
+//   borderFirst   the tile's first border entry in the TABLE_C window
+#define PSUB_TILE_BLOCK 16
+#define PSUB_TILE_GRID 17
+#define PSUB_TILE_RECORD_MEMBERS                                                                \
+    uint gatherFirst;                                                                          \
+    uint gridSide;                                                                             \
+    uint lattice;                                                                              \
+    uint blockSide;                                                                            \
+    uint origin;                                                                               \
+    uint outputBegin;                                                                          \
+    uint outputEnd;                                                                            \
+    uint borderFirst;
 
 #endif

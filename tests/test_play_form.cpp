@@ -89,6 +89,24 @@ TEST(PlayForm, AutoTimesBothFormsOnATiledMesh) {
     fs::remove(torus);
 }
 
+// On Vulkan too: the tiled form (shaders/tile.comp) plays the oracle's frames; auto keeps the
+// per-level rows there. No device fails the test (a skip only with PSUB_ALLOW_NO_VULKAN=1).
+TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoIsPerLevel) {
+    const std::string torus = writeTorus(24);
+    for (const std::string form : {"tiled", "per-level", "factorized", "auto"}) {
+        const Outcome run =
+            psub("play '" + torus + "' --levels 4 --frames 3 --anim twist --verify --backend vulkan --form " + form);
+        if (run.status != 0 && contains(run.err, "Vulkan") && psub::test::noVulkanAllowed())
+            GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << run.err;
+        EXPECT_EQ(run.status, 0) << form << ": " << run.err;
+        EXPECT_TRUE(contains(run.out, form == "auto" ? "Table form: per-level (auto: per-level on Vulkan)"
+                                                     : "Table form: " + form + " (forced)"))
+            << run.out;
+        EXPECT_TRUE(contains(run.out, "Verified: all 3 frames")) << run.out;
+    }
+    fs::remove(torus);
+}
+
 TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
     const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --levels 3 --frames 2");
     EXPECT_EQ(run.status, 0) << run.err;

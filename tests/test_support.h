@@ -22,6 +22,7 @@
 #include <initializer_list>
 #include <iterator>
 #include <map>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -93,6 +94,25 @@ inline Mesh makeMesh(std::vector<double> positions,
     mesh.faces.vertexCount = Index(mesh.positions.size() / 3);
     for (auto face : faces) mesh.faces.addFace(std::vector<Index>(face));
     return mesh;
+}
+
+// An nu x nv quad torus (every vertex regular): vertex (i, j) is j * nu + i, face (i, j) is
+// j * nu + i, counter-clockwise.
+inline Loaded loadTorus(Index nu, Index nv) {
+    Loaded loaded;
+    Mesh& mesh = loaded.mesh;
+    mesh.faces.vertexCount = nu * nv;
+    const double pi = std::numbers::pi;
+    for (Index j = 0; j < nv; ++j)
+        for (Index i = 0; i < nu; ++i) {
+            const double u = 2 * pi * i / nu, v = 2 * pi * j / nv;
+            mesh.positions.insert(mesh.positions.end(),
+                                  {(3 + std::cos(v)) * std::cos(u), (3 + std::cos(v)) * std::sin(u), std::sin(v)});
+            const Index i1 = (i + 1) % nu, j1 = (j + 1) % nv;
+            mesh.faces.addFace(std::vector<Index>{j * nu + i, j * nu + i1, j1 * nu + i1, j1 * nu + i});
+        }
+    loaded.checked = checkMesh(mesh);
+    return loaded;
 }
 
 inline Hierarchy refine(const Loaded& loaded, int steps, Preprocess mode = Preprocess::Auto,

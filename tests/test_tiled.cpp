@@ -11,31 +11,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <numbers>
 
 namespace psub {
 namespace {
 
-// An nu x nv quad torus: vertex (i, j) is j * nu + i, face (i, j) is j * nu + i, counter-clockwise.
-Mesh makeTorus(Index nu, Index nv) {
-    Mesh mesh;
-    mesh.faces.vertexCount = nu * nv;
-    for (Index j = 0; j < nv; ++j)
-        for (Index i = 0; i < nu; ++i) {
-            const double u = 2 * std::numbers::pi * i / nu, v = 2 * std::numbers::pi * j / nv;
-            mesh.positions.insert(mesh.positions.end(),
-                                  {(3 + std::cos(v)) * std::cos(u), (3 + std::cos(v)) * std::sin(u), std::sin(v)});
-            const Index i1 = (i + 1) % nu, j1 = (j + 1) % nv;
-            mesh.faces.addFace(std::vector<Index>{j * nu + i, j * nu + i1, j1 * nu + i1, j1 * nu + i});
-        }
-    return mesh;
-}
-
-test::Loaded loadTorus(Index nu, Index nv) {
-    test::Loaded loaded{makeTorus(nu, nv), {}};
-    loaded.checked = checkMesh(loaded.mesh);
-    return loaded;
-}
+using test::loadTorus;
 
 const auto diagonal = test::boundingDiagonal;
 

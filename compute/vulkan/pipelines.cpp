@@ -10,6 +10,7 @@
 #include "face_normals.spv.h"
 #include "factorized.spv.h"
 #include "level.spv.h"
+#include "tile.spv.h"
 #include "vertex_normals.spv.h"
 
 namespace psub::vulkan {
@@ -26,6 +27,7 @@ Code code(Kernel kernel) {
     case Kernel::Factorized: return {"factorized.comp", psub_spirv_factorized};
     case Kernel::FaceNormals: return {"face_normals.comp", psub_spirv_face_normals};
     case Kernel::VertexNormals: return {"vertex_normals.comp", psub_spirv_vertex_normals};
+    case Kernel::Tile: return {"tile.comp", psub_spirv_tile};
     }
     return {"?", {}};
 }

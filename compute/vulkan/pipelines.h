@@ -25,10 +25,13 @@ struct PushConstants {
 struct GroupRecord {
     PSUB_GROUP_RECORD_MEMBERS
 };
-static_assert(sizeof(PushConstants) == 32 && sizeof(GroupRecord) == 32);
+struct TileRecord {
+    PSUB_TILE_RECORD_MEMBERS
+};
+static_assert(sizeof(PushConstants) == 32 && sizeof(GroupRecord) == 32 && sizeof(TileRecord) == 32);
 
-enum class Kernel { Level, Factorized, FaceNormals, VertexNormals };
-inline constexpr int kKernelCount = 4;
+enum class Kernel { Level, Factorized, FaceNormals, VertexNormals, Tile };
+inline constexpr int kKernelCount = 5;
 
 struct Specialization {
     uint components = 3, sourceStride = 3, destinationStride = 3;

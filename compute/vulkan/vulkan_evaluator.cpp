@@ -47,13 +47,30 @@ VulkanEvaluator::Impl::~Impl() {
         destroyBuffer(context, *b);
 }
 
+namespace {
+const FactorizedTable& noFactorizedTable() {
+    static const FactorizedTable none;
+    return none;
+}
+}  // namespace
+
 VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
                                  const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
                                  std::uint32_t width, const VulkanEvaluatorOptions& options)
+    : VulkanEvaluator(context, perLevel, factorized, surface, form, nullptr, width, options) {}
+
+VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const TiledTable& tiled, std::uint32_t width,
+                                 const VulkanEvaluatorOptions& options)
+    : VulkanEvaluator(context, tiled.rows, noFactorizedTable(), tiled.surface, TableForm::Tiled, &tiled, width, options) {}
+
+VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
+                                 const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
+                                 const TiledTable* tiled, std::uint32_t width, const VulkanEvaluatorOptions& options)
     : impl_(std::make_unique<Impl>(contextInternals(context), width)) {
     if (width == 0 || width > kMaxWidth)
         throw std::invalid_argument("VulkanEvaluator: width must be 1 to " + std::to_string(kMaxWidth));
-    if (form == TableForm::Tiled) throw std::invalid_argument("VulkanEvaluator: no tiled form on Vulkan yet");
+    if ((form == TableForm::Tiled) != (tiled != nullptr))
+        throw std::invalid_argument("VulkanEvaluator: the tiled form takes its TiledTable");
     if (form == TableForm::Factorized &&
         (factorized.rowCount() != perLevel.refinedCount() || factorized.controlCount != perLevel.controlCount))
         throw std::invalid_argument("VulkanEvaluator: the factorized table was not built for these levels");
@@ -98,8 +115,9 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
         VK_CHECK(vkCreateQueryPool(c.device, &queryInfo, nullptr, &e.queries));
     }
 
-    // Vertex buffers: control points, each level (per-level form) or the finest (factorized).
-    const std::size_t levelCount = form == TableForm::PerLevel ? perLevel.levels.size() : 1;
+    // Vertex buffers: control points, each level (per-level and tiled forms: the tiled form's
+    // levels after its base level hold only the fallback's points) or the finest (factorized).
+    const std::size_t levelCount = form == TableForm::Factorized ? 1 : perLevel.levels.size();
     e.levels.resize(levelCount + 1);
     // Every vertex buffer is padded from 3 to 4 floats per element (one vec4 load or store
     // each), the refined positions too: read-backs and uploads convert from and to packed xyz.
@@ -117,8 +135,9 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     }
 
     Uploader uploader(c, !e.staging);
-    if (form == TableForm::PerLevel) e.buildPerLevel(perLevel, uploader);
-    else e.buildFactorized(factorized, uploader);
+    if (form == TableForm::Factorized) e.buildFactorized(factorized, uploader);
+    else e.buildPerLevel(perLevel, uploader);
+    if (tiled) e.buildTiles(*tiled, uploader);
     if (e.hasSurface) {
         e.buildNormals(surface, uploader);
         if (e.staging)
@@ -186,7 +205,7 @@ StageTimes VulkanEvaluator::lastTimes() const {
 
 std::unique_ptr<Evaluator> makeVulkanEvaluator(VulkanContext& context, const EvaluatorTables& tables, TableForm form,
                                                const VulkanEvaluatorOptions& options) {
-    if (form == TableForm::Tiled) throw std::invalid_argument("VulkanEvaluator: no tiled form on Vulkan yet");
+    if (form == TableForm::Tiled) return std::make_unique<VulkanEvaluator>(context, tables.tiled, 3, options);
     return std::make_unique<VulkanEvaluator>(context, tables.perLevel, tables.factorized, tables.surface, form, 3,
                                              options);
 }

@@ -181,6 +181,83 @@ void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Upload
     stencilStages.push_back(std::move(stage));
 }
 
+void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, Uploader& uploader) {
+    // One workgroup per block of at most PSUB_TILE_BLOCK lattice intervals a side; a tile's
+    // blocks in order. Dispatches cover whole tiles whose gathered grids, border entries and
+    // block records each fit one binding.
+    if (table.tileCount() == 0) return;
+    const std::uint32_t t = table.doubleSteps, halo = table.halo;
+    std::uint32_t n = (PSUB_TILE_BLOCK >> t) + 2 * halo + 1, largest = n;
+    for (std::uint32_t s = 0; s + 1 < t; ++s) largest = std::max(largest, n = 2 * n - 9);
+    if (t == 0 || t > 3 || largest > PSUB_TILE_GRID)
+        throw std::invalid_argument("VulkanEvaluator: the tiled table's " + std::to_string(t) + " double steps and halo " +
+                                    std::to_string(halo) + " need grids beyond the tile kernel's");
+    const auto blocksOf = [&](std::size_t k) {
+        const std::uint64_t L = table.lattice(k), M = std::min<std::uint64_t>(L, PSUB_TILE_BLOCK);
+        return (L / M) * (L / M);
+    };
+    std::vector<std::uint64_t> blockBegin{0};  // per tile: its first block
+    for (std::size_t k = 0; k < table.tileCount(); ++k) blockBegin.push_back(blockBegin.back() + blocksOf(k));
+    BindingLimits limits = bindingLimits();
+    limits.maxRows = std::max<std::uint64_t>(1, limits.maxRows / (std::uint64_t(PSUB_WORKGROUP_SIZE) * PSUB_TILE_BLOCK *
+                                                                   PSUB_TILE_BLOCK));  // tiles, not rows
+    const std::vector<RowChunk> chunks = splitRows(
+        table.tileCount(), limits,
+        [&](std::uint64_t a, std::uint64_t b) {
+            return fits(4 * (table.gatherBegin[b] - table.gatherBegin[a])) &&
+                   fits(4 * (table.borderBegin[b] - table.borderBegin[a])) &&
+                   fits(sizeof(TileRecord) * (blockBegin[b] - blockBegin[a]));
+        },
+        "tiled table");
+    const Buffer gather = uploader.upload(table.gather, tables);
+    const Buffer border = uploader.upload(table.border, tables);
+    // First element of a window starting at `begin` (window() rounds its offset down).
+    const auto firstElement = [&](std::uint64_t begin, std::uint64_t bytes) { return begin * bytes / alignment * alignment / bytes; };
+    const Buffer records = uploader.uploadFilled<TileRecord>(
+        blockBegin.back(),
+        [&](TileRecord* out) {
+            for (const auto& [a, b] : chunks) {
+                const std::uint64_t gatherFirst = firstElement(table.gatherBegin[a], 4);
+                const std::uint64_t borderFirst = firstElement(table.borderBegin[a], 4);
+                for (std::size_t k = a; k < b; ++k) {
+                    const std::uint32_t L = table.lattice(k), M = std::min<std::uint32_t>(L, PSUB_TILE_BLOCK), g = table.gridSize(k);
+                    const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
+                    for (std::uint32_t Y0 = 0; Y0 < L; Y0 += M)
+                        for (std::uint32_t X0 = 0; X0 < L; X0 += M)
+                            *out++ = {std::uint32_t(table.gatherBegin[k] - gatherFirst + (Y0 >> t) * g + (X0 >> t)), g, L, M,
+                                      X0 | Y0 << 16, table.output[k], end,
+                                      std::uint32_t(table.borderBegin[k] - borderFirst)};
+                }
+            }
+        },
+        tables);
+    Stage stage;
+    stage.kernel = Kernel::Tile;
+    const VertexBuffer& base = levels[table.baseLevel];
+    stage.specialization = {width, base.stride, refinedBuffer().stride, base.windows > 1, refinedBuffer().windows > 1};
+    stage.written = &refinedBuffer();
+    for (const auto& [a, b] : chunks) {
+        const std::uint64_t blocks = blockBegin[b] - blockBegin[a];
+        Dispatch d = dispatch(blocks * PSUB_WORKGROUP_SIZE);  // one workgroup per block
+        d.source = &base;
+        d.destination = &refinedBuffer();
+        d.tables[0] = window(records, sizeof(TileRecord), blockBegin[a], blockBegin[b]);
+        d.tables[1] = window(gather, 4, table.gatherBegin[a], table.gatherBegin[b]);
+        d.tables[2] = window(border, 4, table.borderBegin[a], table.borderBegin[b]);
+        assert(d.tables[1].firstElement == firstElement(table.gatherBegin[a], 4) &&
+               d.tables[2].firstElement == firstElement(table.borderBegin[a], 4));
+        d.texelFormats[0] = VK_FORMAT_R32G32B32A32_UINT;
+        d.push.rowCount = std::uint32_t(blocks);
+        d.push.groupBase = t;
+        d.push.groupCount = halo;
+        d.push.tableBase = std::uint32_t(blockBegin[a] - d.tables[0].firstElement);
+        d.push.sourceWindowSize = base.windowSize;
+        d.push.destinationWindowSize = refinedBuffer().windowSize;
+        stage.dispatches.push_back(d);
+    }
+    stencilStages.push_back(std::move(stage));
+}
+
 void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& uploader) {
     const std::uint64_t faces = surface.faceOffsets.size() - 1;
     // Padded: read and written as vec4. One element more, after the faces': zero, cleared by

@@ -14,8 +14,8 @@
 // - Drawing order: surface() is the face list to draw over the refined vertices: the finest
 //   faces for PerLevel and Factorized (canonical order, docs/scheme.md), the tiled table's own
 //   faces for Tiled (its drawing order; toCanonical in psub/evaluator.h rearranges).
-// - Forms: every backend takes PerLevel and Factorized; a backend without Tiled throws
-//   std::invalid_argument naming itself (the Vulkan backend does, for now).
+// - Forms: every backend takes all three (the CPU and Vulkan ones do); a backend without one
+//   throws std::invalid_argument naming itself.
 // - Frames allocate nothing. Bad control points: NaN or infinite results where they reach,
 //   never a crash (psub/evaluator.h).
 //

@@ -63,11 +63,17 @@ public:
     // Uploads the tables. The contract's ownership rule holds (psub/evaluate.h): they must
     // outlive the evaluator (surface() returns `surface`). `factorized` may be empty when
     // form is PerLevel; `surface` may be empty when normals are never asked for. Throws
-    // std::invalid_argument for the Tiled form (not on Vulkan yet), inconsistent tables or
-    // width 0 (or above 16), VulkanError on device failure or buffers beyond the device's limits.
+    // std::invalid_argument for the Tiled form (the next constructor takes it), inconsistent
+    // tables or width 0 (or above 16), VulkanError on device failure or buffers beyond the
+    // device's limits.
     VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel,
                     const FactorizedTable& factorized, const SurfaceTable& surface, TableForm form,
                     std::uint32_t width = 3, const VulkanEvaluatorOptions& options = {});
+    // The tiled form (psub/tiled.h): positions and normals in its drawing order, surface() is
+    // tiled.surface. Its per-level rows run as above; each regular tile's last 2t steps run in
+    // workgroup-shared memory (shaders/tile.comp), only the finest points written.
+    VulkanEvaluator(VulkanContext& context, const TiledTable& tiled, std::uint32_t width = 3,
+                    const VulkanEvaluatorOptions& options = {});
     ~VulkanEvaluator();
     VulkanEvaluator(const VulkanEvaluator&) = delete;
     VulkanEvaluator& operator=(const VulkanEvaluator&) = delete;
@@ -125,6 +131,10 @@ public:
     struct Impl;
 
 private:
+    VulkanEvaluator(VulkanContext& context, const PerLevelTable& perLevel, const FactorizedTable& factorized,
+                    const SurfaceTable& surface, TableForm form, const TiledTable* tiled, std::uint32_t width,
+                    const VulkanEvaluatorOptions& options);
+
     std::unique_ptr<Impl> impl_;
 };
 

@@ -1,0 +1,171 @@
+// The tiled form on Vulkan (shaders/tile.comp and the tiled table's per-level rows) against
+// the CPU tiled evaluator, both in the tiled drawing order: every model with both boundary
+// modes and two rule sets, a torus at every double-step count and several widths (bit for bit
+// where the arithmetic is the CPU's), split dispatches under small bindings, staging, the
+// storage-buffer reads, the refusals. Validation layer on; no device fails unless
+// PSUB_ALLOW_NO_VULKAN=1.
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+#include "vulkan_test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+namespace psub {
+namespace {
+
+using VulkanTiled = test::ValidatedVulkanTest;
+
+struct Tiled {
+    test::Loaded loaded;
+    Refinement r;
+};
+
+Tiled tiledFor(test::Loaded loaded, int steps, Boundary boundary = Boundary::Paper, Rules rules = Rules::Paper) {
+    Tiled t{std::move(loaded), {}};
+    RefineOptions options;
+    options.levels = steps;
+    options.boundary = boundary;
+    options.rules = rules;
+    options.tiled = true;
+    t.r = refine(t.loaded.mesh, t.loaded.checked.connectivity, options);
+    return t;
+}
+
+// Frame `frame` of a wave over the model, `width` values per control point (xyz, then linear
+// primvars of them).
+std::vector<float> animate(const std::vector<double>& positions, std::uint32_t width, int frame) {
+    const std::size_t count = positions.size() / 3;
+    std::vector<float> control(count * width);
+    for (std::size_t v = 0; v < count; ++v) {
+        const double* p = &positions[3 * v];
+        const double y = p[1] + 0.1 * std::sin(3 * p[0] + frame);
+        for (std::uint32_t i = 0; i < width; ++i)
+            control[v * width + i] = float(i == 0 ? p[0] : i == 1 ? y : i == 2 ? p[2] : (i + 1) * p[0] - 0.5 * y + i);
+    }
+    return control;
+}
+
+double largestDifference(const std::vector<float>& a, const std::vector<float>& b) {
+    if (a.size() != b.size()) return INFINITY;
+    double worst = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const double d = std::abs(double(a[i]) - double(b[i]));
+        if (!(d <= worst)) worst = std::isnan(d) ? INFINITY : d;
+    }
+    return worst;
+}
+
+// Two changing frames through the Vulkan and the CPU tiled evaluators: positions and normals
+// (with `width` >= 3) within `tolerance` (relative to the model's size for positions). A point
+// the device did not write keeps the previous frame's value and fails the second frame.
+void compareWithCpu(VulkanContext& context, const Tiled& t, std::uint32_t width, double tolerance,
+                    const VulkanEvaluatorOptions& options = {}) {
+    CpuEvaluator<float> cpu(t.r.tiled, width, 2);
+    VulkanEvaluator gpu(context, t.r.tiled, width, options);
+    ASSERT_EQ(gpu.refinedCount(), cpu.refinedCount());
+    EXPECT_EQ(&gpu.surface(), &t.r.tiled.surface);
+    const double scale = std::max(1.0, test::boundingDiagonal(t.loaded.mesh.positions));
+    std::vector<float> expected(std::size_t(cpu.refinedCount()) * width), actual(expected.size());
+    std::vector<float> expectedNormals(3 * std::size_t(cpu.refinedCount())), actualNormals(expectedNormals.size());
+    for (int frame = 0; frame < 2; ++frame) {
+        SCOPED_TRACE("width " + std::to_string(width) + " frame " + std::to_string(frame));
+        const std::vector<float> control = animate(t.loaded.mesh.positions, width, frame);
+        cpu.evaluate(control, expected);
+        if (width >= 3) {
+            cpu.normals(expected, expectedNormals);
+            gpu.evaluate(control, actual, actualNormals);
+            EXPECT_LE(largestDifference(actualNormals, expectedNormals), tolerance == 0 ? 0.0 : 1e-5);
+        } else {
+            gpu.evaluate(control, actual);
+        }
+        EXPECT_LE(largestDifference(actual, expected), tolerance * scale);
+    }
+}
+
+TEST_F(VulkanTiled, EqualsTheCpuTiledEvaluatorOnEveryModel) {
+    std::size_t tiles[2][2] = {};  // [boundary][rules]: tiles met, so the tile kernel is covered
+    for (const std::string& path : test::allValidModels())
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
+            for (Rules rules : {Rules::Paper, Rules::Shape})
+                for (int steps : {2, 5}) {
+                    SCOPED_TRACE(path + " steps " + std::to_string(steps) + " " + boundaryName(boundary) + " " +
+                                 rulesName(rules));
+                    const Tiled t = tiledFor(test::load(path), steps, boundary, rules);
+                    tiles[int(boundary)][rules == Rules::Shape] += t.r.tiled.tileCount();
+                    compareWithCpu(context(), t, 3, 1e-6);
+                }
+    for (int boundary = 0; boundary < 2; ++boundary)
+        for (int rules = 0; rules < 2; ++rules) EXPECT_GT(tiles[boundary][rules], 0u) << boundary << rules;
+}
+
+// Every finest point of a torus is a tile's, at t = 1, 2 and 3 double steps (odd steps: the
+// base level one higher, reached by per-level rows), one to seven values per vertex (four per
+// pass of the kernel). The tile kernel does the CPU's operations in the CPU's order: the same
+// bits at widths 3 and 4; at other widths the CPU's generic per-level rows add in another order
+// (test_vulkan.cpp), so those are equal only where there are no such rows (even steps).
+TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
+    const test::Loaded torus = test::loadTorus(24, 24);
+    std::uint32_t doubleSteps = 0;
+    for (int steps = 2; steps <= 6; ++steps) {
+        SCOPED_TRACE("steps " + std::to_string(steps));
+        const Tiled t = tiledFor(torus, steps);
+        ASSERT_GT(t.r.tiled.tileCount(), 0u);
+        ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
+        doubleSteps = std::max(doubleSteps, t.r.tiled.doubleSteps);
+        for (std::uint32_t width : {1u, 3u, 4u, 7u})
+            compareWithCpu(context(), t, width, width == 3 || width == 4 || steps % 2 == 0 ? 0.0 : 1e-6);
+    }
+    EXPECT_EQ(doubleSteps, 3u);
+}
+
+TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) {
+    // Bindings a third of the refined vertex buffer (its windows; the least the evaluator
+    // allows). At one value per vertex the gathered grids (2.6 bytes per point here: tiles of
+    // 8 x 8 faces and single faces) then exceed one binding, so the tiles are split into
+    // dispatches; at width 3 the vertex buffers are split into windows instead.
+    const Tiled t = tiledFor(test::loadTorus(40, 24), 2);
+    ASSERT_GT(t.r.tiled.tileCount(), 0u);
+    for (std::uint32_t width : {1u, 3u})
+        for (Staging staging : {Staging::Auto, Staging::Always}) {
+            SCOPED_TRACE(width);
+            const std::uint64_t stride = width == 3 ? 4 : width;
+            const VulkanEvaluatorOptions small{staging, std::uint64_t(t.r.tiled.refinedCount) * stride * 4 / 3 + 1024};
+            compareWithCpu(context(), t, width, 0.0, small);
+            VulkanEvaluator whole(context(), t.r.tiled, width), split(context(), t.r.tiled, width, small);
+            EXPECT_EQ(whole.dispatchCount(), 1u);
+            if (width == 1) {
+                EXPECT_GT(split.dispatchCount(), 1u);
+            }
+        }
+    const Tiled spot = tiledFor(test::load(test::dataPath("spot_control_mesh.obj")), 5);
+    ASSERT_GT(spot.r.tiled.tileCount(), 0u);
+    compareWithCpu(context(), spot, 3, 1e-6, {Staging::Auto, std::uint64_t(spot.r.tiled.refinedCount) * 4 * 4 / 3 + 1024});
+}
+
+TEST_F(VulkanTiled, StorageBufferReadsGiveTheSameResults) {
+    const char* before = std::getenv("PSUB_VULKAN_TEXELS");
+    const std::string saved = before ? before : "";
+    ::setenv("PSUB_VULKAN_TEXELS", "0", 1);
+    const Tiled t = tiledFor(test::loadTorus(40, 24), 5);
+    compareWithCpu(context(), t, 3, 0.0);
+    compareWithCpu(context(), t, 5, 1e-6);
+    const Tiled spot = tiledFor(test::load(test::dataPath("spot_control_mesh.obj")), 4);
+    compareWithCpu(context(), spot, 3, 1e-6);
+    if (before) ::setenv("PSUB_VULKAN_TEXELS", saved.c_str(), 1);
+    else ::unsetenv("PSUB_VULKAN_TEXELS");
+}
+
+TEST_F(VulkanTiled, TheOtherConstructorRefusesTheTiledForm) {
+    const Tiled t = tiledFor(test::load(test::dataPath("cube.obj")), 2);
+    EXPECT_THROW(VulkanEvaluator(context(), t.r.perLevel, t.r.factorized, t.r.surface, TableForm::Tiled),
+                 std::invalid_argument);
+    EXPECT_THROW(VulkanEvaluator(context(), t.r.tiled, 0), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace psub
