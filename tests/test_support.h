@@ -115,6 +115,20 @@ inline Loaded loadTorus(Index nu, Index nv) {
     return loaded;
 }
 
+// Frame `frame` of a twisting wave over control points `positions` (xyz triples), `width`
+// values per point: xyz, then linear primvars of them (the evaluators' changing frames).
+inline std::vector<float> animate(const std::vector<double>& positions, std::uint32_t width, int frame) {
+    const std::size_t count = positions.size() / 3;
+    std::vector<float> control(count * width);
+    for (std::size_t v = 0; v < count; ++v) {
+        const double* p = &positions[3 * v];
+        const double y = p[1] + 0.1 * std::sin(3 * p[0] + frame);
+        for (std::uint32_t i = 0; i < width; ++i)
+            control[v * width + i] = float(i == 0 ? p[0] : i == 1 ? y : i == 2 ? p[2] : (i + 1) * p[0] - 0.5 * y + i);
+    }
+    return control;
+}
+
 inline Hierarchy refine(const Loaded& loaded, int steps, Preprocess mode = Preprocess::Auto,
                         Boundary boundary = Boundary::Paper) {
     const bool preprocess = needsPreprocessing(loaded.mesh.faces, loaded.checked.connectivity, mode);

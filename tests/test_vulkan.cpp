@@ -106,19 +106,7 @@ Tables tablesFor(const std::string& path, int steps, bool factorized = true, Bou
 
 const auto diagonal = test::boundingDiagonal;
 
-// Frame `frame` of a twisting wave over the model, `width` values per control point: xyz and
-// then linear primvars of them.
-std::vector<float> animate(const std::vector<double>& positions, std::uint32_t width, int frame) {
-    const std::size_t count = positions.size() / 3;
-    std::vector<float> control(count * width);
-    for (std::size_t v = 0; v < count; ++v) {
-        const double* p = &positions[3 * v];
-        const double y = p[1] + 0.1 * std::sin(3 * p[0] + frame);
-        for (std::uint32_t i = 0; i < width; ++i)
-            control[v * width + i] = float(i == 0 ? p[0] : i == 1 ? y : i == 2 ? p[2] : (i + 1) * p[0] - 0.5 * y + i);
-    }
-    return control;
-}
+using test::animate;
 
 // Largest |a - b| over the values; both the same size.
 double maxDifference(const std::vector<float>& a, const std::vector<float>& b) {
