@@ -179,6 +179,10 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
             r.timing = timeFrames(
                 frames, [&](int frame) { animation.write(frame, control.data(), 3); },
                 [&] { evaluator->evaluate(control, {}); });
+            r.normalsTiming = timeFrames(
+                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+                [&] { evaluator->evaluateKept(control, true); });
+            r.hasNormals = true;
             animation.writeRest(control.data(), 3);
             evaluator->evaluate(control, out);
             if (form == TableForm::Tiled) {  // drawing order -> canonical, outside the timing
@@ -255,7 +259,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     const std::size_t controlCount = perLevel.controlCount, refinedCount = perLevel.refinedCount();
     const Animation animation(model.mesh.positions, boxDiagonal(model.mesh.positions));
 
-    std::vector<float> control(3 * controlCount), out(3 * refinedCount), reference;
+    std::vector<float> control(3 * controlCount), out(3 * refinedCount), normals(3 * refinedCount), reference;
     Shape shape;
     std::vector<int> threadCounts{1};
     if (allThreads > 1) threadCounts.push_back(allThreads);
@@ -276,6 +280,10 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             r.timing = timeFrames(
                 frames, [&](int frame) { animation.write(frame, control.data(), 3); },
                 [&] { evaluator.evaluate(control, out); });
+            r.normalsTiming = timeFrames(
+                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+                [&] { evaluator.evaluate(control, out, normals); });
+            r.hasNormals = true;
 
             animation.writeRest(control.data(), 3);
             evaluator.evaluate(control, out);
@@ -482,6 +490,10 @@ int runBench(const BenchOptions& options) {
         r.floorRatio = r.floorMs > 0 ? r.timing.median / r.floorMs : 0;
         r.writeFloorMs = writeOnly > 0 ? floorBytes / (writeOnly * 1e9) * 1e3 : 0;
         r.writeFloorRatio = r.writeFloorMs > 0 ? r.timing.median / r.writeFloorMs : 0;
+        if (r.hasNormals) {
+            r.normalsFloorMs = 2 * r.floorMs;
+            r.normalsFloorRatio = r.normalsFloorMs > 0 ? r.normalsTiming.median / r.normalsFloorMs : 0;
+        }
     }
 
     printMarkdown(report, stdout);

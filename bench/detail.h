@@ -216,6 +216,12 @@ struct Record {
     // frame_ms_median / floor_ms; write_floor_ms / write_floor_ratio: the same at the
     // write-only (streaming store) bandwidth.
     double floorMs = 0, floorRatio = 0, writeFloorMs = 0, writeFloorRatio = 0;
+    // PSub evaluators: frames of positions and normals together (normals_frame_ms_median; the
+    // tiled CPU form computes most normals in its tile pass), against the floor of writing both
+    // once (24 B per refined vertex at the triad: normals_floor_ms, normals_floor_ratio).
+    bool hasNormals = false;
+    Timing normalsTiming;
+    double normalsFloorMs = 0, normalsFloorRatio = 0;
 };
 
 struct SizeResult {

@@ -85,7 +85,8 @@ void printMarkdown(const Report& report, std::FILE* out) {
                  "- Write-only bandwidth (streaming stores of %zu doubles): **%.1f GB/s on 1 thread, %.1f GB/s on %d "
                  "threads**. Floor = refined vertices x 12 B (finest positions written once) at the triad of the "
                  "record's thread count; x floor = frame time / floor; x write floor: the same at write-only "
-                 "bandwidth\n",
+                 "bandwidth; with normals: frames of positions and normals together, against 24 B per vertex at "
+                 "the triad\n",
                  3 * report.triadElements, report.write1, report.writeAll, m.threads);
     std::fprintf(out,
                  "- Frames: control points move every frame (a small wave); per-frame time is the median (and "
@@ -146,17 +147,19 @@ void printMarkdown(const Report& report, std::FILE* out) {
     std::fprintf(out, "\n## Every configuration\n\n");
     std::fprintf(out, "| model | k | scheme | levels | faces | evaluator | thr | layout | build ms (topology + "
                       "table) | frame ms median | min | frames | MB/frame | GB/s | bw fraction | speed-up vs OSD "
-                      "fastest | build speed-up | max diff | floor ms | x floor | x write floor | table MB |\n");
-    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                      "fastest | build speed-up | max diff | floor ms | x floor | x write floor | table MB | "
+                      "with normals ms | x floor (24 B) |\n");
+    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (const Record& r : report.records)
-        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e | %.3f | %.1f | %.1f | %.1f |\n",
+        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e | %.3f | %.1f | %.1f | %.1f | %s | %s |\n",
                      r.model.c_str(), r.ccLevel, r.scheme == "ps" ? "P-S" : "CC", r.levels,
                      (unsigned long long)r.refinedFaces, r.evaluator.c_str(), r.threads, r.layoutFloats,
                      ms(r.buildMs).c_str(), ms(r.topologyMs).c_str(), ms(r.tableMs).c_str(),
                      ms(r.timing.median).c_str(), ms(r.timing.min).c_str(), r.timing.frames,
                      double(r.bytesPerFrame) / 1e6, r.gbs, r.bandwidthFraction, ratio(r.ratioVsOsdBest).c_str(),
                      ratio(r.buildRatioVsOsdBest).c_str(), r.maxDiff, r.floorMs, r.floorRatio, r.writeFloorRatio,
-                     double(r.tableBytes) / 1e6);
+                     double(r.tableBytes) / 1e6, r.hasNormals ? ms(r.normalsTiming.median).c_str() : "-",
+                     r.hasNormals ? format("%.1f", r.normalsFloorRatio).c_str() : "-");
 
     std::fprintf(out, "\n## Shape at matched sizes (refined positions from the evaluators, rest pose)\n\n");
     std::fprintf(out, "| model | input volume | input box diagonal | k | P-S levels | P-S faces | P-S volume | P-S "
@@ -227,6 +230,10 @@ void writeJson(const Report& report, const std::string& path) {
         o["max_diff_rel"] = r.maxDiff, o["volume"] = r.shape.volume, o["bbox_diagonal"] = r.shape.diagonal;
         o["floor_ms"] = r.floorMs, o["floor_ratio"] = r.floorRatio;
         o["write_floor_ms"] = r.writeFloorMs, o["write_floor_ratio"] = r.writeFloorRatio;
+        if (r.hasNormals) {
+            o["normals_frame_ms_median"] = r.normalsTiming.median, o["normals_floor_ms"] = r.normalsFloorMs;
+            o["normals_floor_ratio"] = r.normalsFloorRatio;
+        }
         results.push_back(std::move(o));
     }
     const Json json = {

@@ -87,6 +87,21 @@ CpuEvaluator<T>::CpuEvaluator(const TiledTable& tiled, std::uint32_t width, int 
     if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
     allocate();
     tileScratch_.resize(tileScratchSize(tiled, width) * std::size_t(threads_));
+    // The tiles' inner points: each tile's first (L - 1)^2 drawing positions.
+    std::vector<char> inner(tiled.surface.vertexCount, 0);
+    for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
+        const std::uint32_t L = tiled.lattice(k);
+        std::fill_n(inner.begin() + tiled.output[k], std::size_t(L - 1) * (L - 1), char(1));
+    }
+    std::vector<char> touched(tiled.surface.faceOffsets.size() - 1, 0);
+    for (std::uint32_t v = 0; v < tiled.surface.vertexCount; ++v) {
+        if (inner[v]) continue;
+        restVertices_.push_back(v);
+        for (std::uint32_t i = tiled.surface.vertexOffsets[v]; i < tiled.surface.vertexOffsets[v + 1]; ++i)
+            touched[tiled.surface.vertexFaces[i]] = 1;
+    }
+    for (std::uint32_t f = 0; f < touched.size(); ++f)
+        if (touched[f]) restFaces_.push_back(f);
 }
 
 template <class T>
@@ -121,7 +136,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         }
         return;
     }
-    if (form_ == TableForm::Tiled) return evaluateTiled(control, refined, team);
+    if (form_ == TableForm::Tiled) return evaluateTiled(control, refined, nullptr, team);
     const std::size_t levels = perLevel_.levels.size();
     if (levels == 0) {
         std::copy(control.begin(), control.begin() + std::ptrdiff_t(controlCount()) * width_, refined.begin());
@@ -138,9 +153,22 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     }
 }
 
-// The per-level rows (levels up to B whole, then the fallback's), then the tiles from level B.
 template <class T>
-void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> refined, int team) {
+void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined, std::span<T> normals) {
+    if (normals.empty()) return evaluate(control, refined);
+    assert(width_ >= 3 && normals.size() >= 3 * std::size_t(refinedCount()));
+    if (form_ != TableForm::Tiled || perLevel_.levels.empty()) {
+        evaluate(control, refined);
+        return this->normals(refined, normals);
+    }
+    const int team = teamFor(std::uint64_t(refinedCount()) * width_ * 2, threads_);
+    evaluateTiled(control, refined, normals.data(), team);
+}
+
+// The per-level rows (levels up to B whole, then the fallback's), then the tiles from level B;
+// with `normals`, the tiles' inner points' normals in the tile pass and the rest's after it.
+template <class T>
+void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team) {
     const BufferLayout packed{0, width_, width_};
     const std::size_t levels = perLevel_.levels.size();
     if (levels == 0) {
@@ -162,7 +190,9 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         T* scratch = tileScratch_.data() + std::size_t(omp_get_thread_num()) * scratchSize;
 #pragma omp for schedule(dynamic, 8)
         for (std::size_t k = 0; k < tiled.tileCount(); ++k)
-            evaluateTile(tiled, k, base, width_, refined.data(), scratch);
+            evaluateTile(tiled, k, base, width_, refined.data(), normals, scratch);
+        // After the loop's implicit barrier every position is written.
+        if (normals) normalPasses(refined.data(), normals, &restFaces_, &restVertices_);
     }
 }
 
@@ -171,30 +201,38 @@ void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) 
     assert(width_ >= 3 && normals.size() >= 3 * std::size_t(surface_.vertexCount));
     const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
 #pragma omp parallel num_threads(team) if (team > 1)
-    {
-        if constexpr (std::is_same_v<T, float> && kSimd) {
-            faceNormalsSimd(refined.data());
+    normalPasses(refined.data(), normals.data());
+}
+
+template <class T>
+void CpuEvaluator<T>::normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces,
+                                   const std::vector<std::uint32_t>* vertices) {
+    if constexpr (std::is_same_v<T, float> && kSimd) {
+        faceNormalsSimd(positions, faces);
 #pragma omp barrier
-            vertexNormalsSimd(normals.data());
-        } else {
-            faceNormalsScalar(refined.data());
+        vertexNormalsSimd(normals, vertices);
+    } else {
+        faceNormalsScalar(positions, faces);
 #pragma omp barrier
-            vertexNormalsScalar(normals.data());
-        }
+        vertexNormalsScalar(normals, vertices);
     }
 }
 
-// Newell's normal of each face: twice its area along its normal. Quads (nearly every face
-// after a few steps) unrolled; the same operations in the same order either way.
+// Newell's normal of each face: twice its area along its normal. For a quad (nearly every face
+// after a few steps) that is exactly the cross product of its diagonals, (p2 - p0) x (p3 - p1),
+// which is what is computed: fewer operations, differences only (no rounding that grows with
+// the distance from the origin), and the same bits whichever corner the face starts at, so the
+// tiled form's tile pass (compute/tiled_kernels.cpp) and the Vulkan kernel get these very values.
 template <class T>
-void CpuEvaluator<T>::faceNormalsScalar(const T* p) {
-    const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
+void CpuEvaluator<T>::faceNormalsScalar(const T* p, const std::vector<std::uint32_t>* only) {
+    const std::uint32_t faces = only ? std::uint32_t(only->size()) : std::uint32_t(surface_.faceOffsets.size() - 1);
     const std::size_t stride = width_;
     T* faceNormals = faceNormals_.data();
     const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
     const std::uint32_t* faceVerts = surface_.faceVerts.data();
     const auto [fBegin, fEnd] = share(faces);
-    for (std::uint32_t f = std::uint32_t(fBegin); f < std::uint32_t(fEnd); ++f) {
+    for (std::uint32_t i = std::uint32_t(fBegin); i < std::uint32_t(fEnd); ++i) {
+        const std::uint32_t f = only ? (*only)[i] : i;
         T n0 = 0, n1 = 0, n2 = 0;
         const std::uint32_t begin = faceOffsets[f], end = faceOffsets[f + 1];
         auto edge = [&](const T* a, const T* b) {
@@ -202,15 +240,16 @@ void CpuEvaluator<T>::faceNormalsScalar(const T* p) {
             n1 += (a[2] - b[2]) * (a[0] + b[0]);
             n2 += (a[0] - b[0]) * (a[1] + b[1]);
         };
-        if (end - begin == 4) {
+        if (end - begin == 4) {  // a quad: the cross product of its diagonals (kQuadNormal)
             const T* p0 = p + faceVerts[begin] * stride;
             const T* p1 = p + faceVerts[begin + 1] * stride;
             const T* p2 = p + faceVerts[begin + 2] * stride;
             const T* p3 = p + faceVerts[begin + 3] * stride;
-            edge(p0, p1);
-            edge(p1, p2);
-            edge(p2, p3);
-            edge(p3, p0);
+            const T ax = p2[0] - p0[0], ay = p2[1] - p0[1], az = p2[2] - p0[2];
+            const T bx = p3[0] - p1[0], by = p3[1] - p1[1], bz = p3[2] - p1[2];
+            n0 = ay * bz - az * by;
+            n1 = az * bx - ax * bz;
+            n2 = ax * by - ay * bx;
         } else {
             for (std::uint32_t c = begin; c < end; ++c)
                 edge(p + faceVerts[c] * stride, p + faceVerts[c + 1 == end ? begin : c + 1] * stride);
@@ -224,15 +263,16 @@ void CpuEvaluator<T>::faceNormalsScalar(const T* p) {
 
 // Each vertex gathers its faces' normals in table order, then normalises.
 template <class T>
-void CpuEvaluator<T>::vertexNormalsScalar(T* out) const {
+void CpuEvaluator<T>::vertexNormalsScalar(T* out, const std::vector<std::uint32_t>* only) const {
     const T* faceNormals = faceNormals_.data();
     const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
     const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
-    const auto [vBegin, vEnd] = share(surface_.vertexCount);
-    for (std::uint32_t v = std::uint32_t(vBegin); v < std::uint32_t(vEnd); ++v) {
+    const auto [vBegin, vEnd] = share(only ? only->size() : surface_.vertexCount);
+    for (std::uint32_t i = std::uint32_t(vBegin); i < std::uint32_t(vEnd); ++i) {
+        const std::uint32_t v = only ? (*only)[i] : i;
         T n[4] = {0, 0, 0, 0};
-        for (std::uint32_t i = vertexOffsets[v], end = vertexOffsets[v + 1]; i < end; ++i) {
-            const T* fn = faceNormals + 4 * std::size_t(vertexFaces[i]);
+        for (std::uint32_t j = vertexOffsets[v], end = vertexOffsets[v + 1]; j < end; ++j) {
+            const T* fn = faceNormals + 4 * std::size_t(vertexFaces[j]);
             for (int axis = 0; axis < 4; ++axis) n[axis] += fn[axis];
         }
         const T n0 = n[0], n1 = n[1], n2 = n[2];
@@ -247,11 +287,12 @@ void CpuEvaluator<T>::vertexNormalsScalar(T* out) const {
 #if defined(__SSE2__)
 // The float passes with SSE: one vertex (x, y, z, -) or face normal per register, each lane
 // doing the scalar passes' operations in their order, so the results are bit-identical.
-// The face pass computes the three Newell sums as one product of rotated vectors.
+// The face pass computes the three Newell sums (or a quad's diagonals' cross product) as
+// products of rotated vectors.
 template <class T>
-void CpuEvaluator<T>::faceNormalsSimd(const T* p) {
+void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_t>* only) {
     if constexpr (std::is_same_v<T, float>) {
-        const std::uint32_t faces = std::uint32_t(surface_.faceOffsets.size() - 1);
+        const std::uint32_t faces = only ? std::uint32_t(only->size()) : std::uint32_t(surface_.faceOffsets.size() - 1);
         const std::size_t stride = width_;
         // A 16-byte load at a vertex reads one value past its position: past the buffer only
         // for the last vertex of a packed buffer, which is loaded value by value.
@@ -268,11 +309,12 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p) {
         const std::uint32_t* faceVerts = surface_.faceVerts.data();
         const auto [fBegin, fEnd] = share(faces);
         constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
-        for (std::uint32_t f = std::uint32_t(fBegin); f < std::uint32_t(fEnd); ++f) {
+        for (std::uint32_t i = std::uint32_t(fBegin); i < std::uint32_t(fEnd); ++i) {
+            const std::uint32_t f = only ? (*only)[i] : i;
             const std::uint32_t begin = allQuads_ ? 4 * f : faceOffsets[f];
             const std::uint32_t end = allQuads_ ? begin + 4 : faceOffsets[f + 1];
-            if (allQuads_ && f + kAhead < fEnd) {
-                const std::uint32_t* ahead = faceVerts + 4 * std::size_t(f + kAhead);
+            if (allQuads_ && i + kAhead < fEnd) {
+                const std::uint32_t* ahead = faceVerts + 4 * std::size_t(only ? (*only)[i + kAhead] : f + kAhead);
                 for (int k = 0; k < 4; ++k) __builtin_prefetch(p + std::size_t(ahead[k]) * stride);
             }
             // n += (a.yzx - b.yzx) * (a.zxy + b.zxy) for each edge a b, in corner order.
@@ -282,15 +324,11 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p) {
             };
             auto yzx = [](__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 0, 2, 1)); };
             auto zxy = [](__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 1, 0, 2)); };
-            if (end - begin == 4) {
+            if (end - begin == 4) {  // a quad: (v2 - v0) x (v3 - v1), as the scalar pass
                 const __m128 v0 = load(faceVerts[begin]), v1 = load(faceVerts[begin + 1]);
                 const __m128 v2 = load(faceVerts[begin + 2]), v3 = load(faceVerts[begin + 3]);
-                const __m128 a0 = yzx(v0), a1 = yzx(v1), a2 = yzx(v2), a3 = yzx(v3);
-                const __m128 b0 = zxy(v0), b1 = zxy(v1), b2 = zxy(v2), b3 = zxy(v3);
-                edge(a0, b0, a1, b1);
-                edge(a1, b1, a2, b2);
-                edge(a2, b2, a3, b3);
-                edge(a3, b3, a0, b0);
+                const __m128 a = _mm_sub_ps(v2, v0), b = _mm_sub_ps(v3, v1);
+                n = _mm_sub_ps(_mm_mul_ps(yzx(a), zxy(b)), _mm_mul_ps(zxy(a), yzx(b)));
             } else {
                 for (std::uint32_t c = begin; c < end; ++c) {
                     const __m128 a = load(faceVerts[c]), b = load(faceVerts[c + 1 == end ? begin : c + 1]);
@@ -305,20 +343,21 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p) {
 }
 
 template <class T>
-void CpuEvaluator<T>::vertexNormalsSimd(T* out) const {
+void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>* only) const {
     if constexpr (std::is_same_v<T, float>) {
         const float* faceNormals = faceNormals_.data();
         const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
         const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
-        const auto [vBegin, vEnd] = share(surface_.vertexCount);
+        const auto [vBegin, vEnd] = share(only ? only->size() : surface_.vertexCount);
         if (vBegin == vEnd) return;
-        constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead
-        const std::uint32_t prefetchEnd = vertexOffsets[vEnd] > kAhead ? vertexOffsets[vEnd] - kAhead : 0;
-        for (std::uint32_t v = std::uint32_t(vBegin); v < std::uint32_t(vEnd); ++v) {
+        constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead (all vertices)
+        const std::uint32_t prefetchEnd = !only && vertexOffsets[vEnd] > kAhead ? vertexOffsets[vEnd] - kAhead : 0;
+        for (std::uint32_t i = std::uint32_t(vBegin); i < std::uint32_t(vEnd); ++i) {
+            const std::uint32_t v = only ? (*only)[i] : i;
             __m128 n = _mm_setzero_ps();
-            for (std::uint32_t i = vertexOffsets[v], end = vertexOffsets[v + 1]; i < end; ++i) {
-                if (i < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[i + kAhead]));
-                n = _mm_add_ps(n, _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[i])));
+            for (std::uint32_t j = vertexOffsets[v], end = vertexOffsets[v + 1]; j < end; ++j) {
+                if (j < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[j + kAhead]));
+                n = _mm_add_ps(n, _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[j])));
             }
             alignas(16) float s[4];
             _mm_store_ps(s, n);
@@ -327,8 +366,8 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out) const {
             const __m128 unit = _mm_mul_ps(n, _mm_set1_ps(scale));
             float* o = out + 3 * std::size_t(v);
             // A 16-byte store spills one value into the next vertex, which this thread
-            // writes next; its last vertex is stored exactly.
-            if (v + 1 < vEnd) [[likely]] {
+            // writes next; its last vertex, and every listed one, is stored exactly.
+            if (!only && v + 1 < vEnd) [[likely]] {
                 _mm_storeu_ps(o, unit);
             } else {
                 _mm_storel_pi(reinterpret_cast<__m64*>(o), unit);
@@ -342,9 +381,11 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out) const {
 #else
 // Without SSE2 (not x86-64) the scalar passes serve floats too.
 template <class T>
-void CpuEvaluator<T>::faceNormalsSimd(const T* p) { faceNormalsScalar(p); }
+void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_t>* only) { faceNormalsScalar(p, only); }
 template <class T>
-void CpuEvaluator<T>::vertexNormalsSimd(T* out) const { vertexNormalsScalar(out); }
+void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>* only) const {
+    vertexNormalsScalar(out, only);
+}
 #endif
 
 template class CpuEvaluator<float>;

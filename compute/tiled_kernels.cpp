@@ -1,10 +1,13 @@
 // The tiled form's tile kernel: a tile's gathered level-B grid refined 2t P-S steps with the
 // regular masks over implicit grids (one value per vertex at a time, the last step only over
-// the tile's lattice), then its finest lattice written (inner points with streaming stores). Sums pair opposite neighbours, so two tiles that compute a shared point in their
-// own frames (rotated or reflected) produce bitwise the same value.
+// the tile's lattice), then its finest lattice written (inner points with streaming stores)
+// and, on request, its inner points' unit normals from the lattice in cache. Sums pair
+// opposite neighbours, so two tiles that compute a shared point in their own frames (rotated or
+// reflected) produce bitwise the same value.
 #include "psub/evaluator.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <type_traits>
 #if defined(__SSE2__)
@@ -95,6 +98,45 @@ template <class T>
     }
 }
 
+// Newell's normals of the quads (x, y)-(x + 1, y + 1), x < L, of one lattice row: for a quad,
+// the cross product of its diagonals, (p(x+1, y+1) - p(x, y)) x (p(x, y+1) - p(x+1, y)), corners
+// counter-clockwise in the tile's frame as in the surface's faces. `x`, `y`, `z`: the row's
+// first value in each plane (the next row `side` values on).
+template <class T>
+[[gnu::always_inline]] inline void quadNormalsBody(const T* __restrict x, const T* __restrict y, const T* __restrict z,
+                                                   std::size_t side, std::size_t L, T* __restrict nx,
+                                                   T* __restrict ny, T* __restrict nz) {
+    for (std::size_t i = 0; i < L; ++i) {
+        const T ax = x[side + i + 1] - x[i], ay = y[side + i + 1] - y[i], az = z[side + i + 1] - z[i];
+        const T bx = x[side + i] - x[i + 1], by = y[side + i] - y[i + 1], bz = z[side + i] - z[i + 1];
+        nx[i] = ay * bz - az * by;
+        ny[i] = az * bx - ax * bz;
+        nz[i] = ax * by - ay * bx;
+    }
+}
+
+// Unit normals of a lattice row's inner points (x = 1 .. L - 1) into three planes: the sum of
+// the four quads' normals around each (rows below: `lo`, above: `hi`, as quadNormalsBody writes
+// them), scaled to length 1 (0 where the sum is 0), as normals() does. The file is compiled
+// without errno for math functions and without trapping floating-point compares
+// (compute/CMakeLists.txt), so the square root and the select vectorise (same results).
+template <class T>
+[[gnu::always_inline]] inline void vertexNormalsBody(const T* __restrict lo, const T* __restrict hi, std::size_t stride,
+                                                     std::size_t L, T* __restrict nx, T* __restrict ny,
+                                                     T* __restrict nz) {
+    for (std::size_t i = 1; i < L; ++i) {
+        const T sx = (lo[i - 1] + lo[i]) + (hi[i - 1] + hi[i]);
+        const T sy = (lo[stride + i - 1] + lo[stride + i]) + (hi[stride + i - 1] + hi[stride + i]);
+        const T sz = (lo[2 * stride + i - 1] + lo[2 * stride + i]) + (hi[2 * stride + i - 1] + hi[2 * stride + i]);
+        const T length = std::sqrt(sx * sx + sy * sy + sz * sz);
+        const T inverse = T(1) / length;  // unconditionally (inf at 0): a select, not a branch
+        const T scale = length > 0 ? inverse : T(0);
+        nx[i - 1] = sx * scale;
+        ny[i - 1] = sy * scale;
+        nz[i - 1] = sz * scale;
+    }
+}
+
 // The float and double steps, each compiled twice (AVX2 and the x86-64 baseline) and chosen
 // at load time by the CPU; no fused multiply-add in either, so both give the same bits.
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -111,6 +153,22 @@ PSUB_TILE_CLONES void fine(const float* qv, const float* qf, std::size_t n, std:
 PSUB_TILE_CLONES void fine(const double* qv, const double* qf, std::size_t n, std::size_t from, std::size_t count,
                            double* f, double* even, double* odd) {
     fineBody(qv, qf, n, from, count, f, even, odd);
+}
+PSUB_TILE_CLONES void quadNormals(const float* x, const float* y, const float* z, std::size_t side, std::size_t L,
+                                  float* nx, float* ny, float* nz) {
+    quadNormalsBody(x, y, z, side, L, nx, ny, nz);
+}
+PSUB_TILE_CLONES void quadNormals(const double* x, const double* y, const double* z, std::size_t side, std::size_t L,
+                                  double* nx, double* ny, double* nz) {
+    quadNormalsBody(x, y, z, side, L, nx, ny, nz);
+}
+PSUB_TILE_CLONES void vertexNormals(const float* lo, const float* hi, std::size_t stride, std::size_t L, float* nx,
+                                    float* ny, float* nz) {
+    vertexNormalsBody(lo, hi, stride, L, nx, ny, nz);
+}
+PSUB_TILE_CLONES void vertexNormals(const double* lo, const double* hi, std::size_t stride, std::size_t L, double* nx,
+                                    double* ny, double* nz) {
+    vertexNormalsBody(lo, hi, stride, L, nx, ny, nz);
 }
 PSUB_TILE_CLONES void interleave3(const float* x, const float* y, const float* z, std::size_t count, float* out) {
     interleave3Body(x, y, z, count, out);
@@ -150,21 +208,23 @@ std::uint32_t largestGrid(const TiledTable& table) {
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
-    return (4 + std::size_t(width)) * n * n + 2 * std::size_t(width) * side * side + 2 * n;
+    return (4 + std::size_t(width)) * n * n + 2 * std::max<std::size_t>(width, 3) * side * side + 2 * n + 9 * side;
 }
 
 // Scratch: a, b, qv, qf (one value's grids), the gathered grid of each value, its finest
-// lattice (L + 1)^2 per value, the inner points as packed values, two rows.
+// lattice (L + 1)^2 per value, the inner points as packed values (then their normals), two
+// rows, two rows of quad normals and one of unit normals.
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
-                  T* scratch, T* lattice) {
+                  T* normals, T* scratch, T* lattice) {
     const std::size_t largest = largestGrid(table), area = largest * largest,
                       plane = std::size_t(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1);
     T *a = scratch, *b = scratch + area, *qv = scratch + 2 * area, *qf = scratch + 3 * area;
     T* inputs = scratch + 4 * area;          // the gathered grid of each value
     T* finals = inputs + width * area;       // the finest lattice of each value
     T* packed = finals + width * plane;      // the inner points, `width` values each
-    T *even = packed + width * plane, *odd = even + largest;
+    T *even = packed + std::max<std::uint32_t>(width, 3) * plane, *odd = even + largest;
+    T* quads = odd + largest;                // two rows of quad normals, 3 planes of `side` each
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
     const std::size_t points = std::size_t(g) * g;
@@ -218,6 +278,21 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         }
     }
     streamCopy(packed, std::size_t(out - packed), refined + std::size_t(begin) * width);
+    if (normals) {  // the inner points' normals, from the lattice's first three values
+        const std::size_t stride = 3 * std::size_t(side);
+        T* rows[2] = {quads, quads + stride};
+        const T *x = finals, *y = finals + plane, *z = finals + 2 * plane;
+        quadNormals(x, y, z, side, L, rows[0], rows[0] + side, rows[0] + 2 * side);
+        T* unit = quads + 2 * stride;  // one row's unit normals, 3 planes
+        for (std::uint32_t r = 1; r < L; ++r) {
+            T* lo = rows[(r - 1) % 2];
+            T* hi = rows[r % 2];
+            quadNormals(x + r * side, y + r * side, z + r * side, side, L, hi, hi + side, hi + 2 * side);
+            vertexNormals(lo, hi, side, L, unit, unit + side, unit + 2 * side);
+            interleave3(unit, unit + side, unit + 2 * side, L - 1, packed + 3 * std::size_t(r - 1) * (L - 1));
+        }
+        streamCopy(packed, 3 * std::size_t(L - 1) * (L - 1), normals + 3 * std::size_t(begin));
+    }
     const std::uint32_t* border = table.border.data() + table.borderBegin[k];
     std::size_t e = 0;
     for (std::uint32_t y = 0; y <= L; ++y)
@@ -232,9 +307,10 @@ void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<
         std::copy_n(drawing.data() + p * width, width, canonical.data() + std::size_t(table.canonical[p]) * width);
 }
 
-template void evaluateTile<float>(const TiledTable&, std::size_t, const float*, std::uint32_t, float*, float*, float*);
+template void evaluateTile<float>(const TiledTable&, std::size_t, const float*, std::uint32_t, float*, float*, float*,
+                                  float*);
 template void evaluateTile<double>(const TiledTable&, std::size_t, const double*, std::uint32_t, double*, double*,
-                                   double*);
+                                   double*, double*);
 template void toCanonical<float>(const TiledTable&, std::span<const float>, std::span<float>, std::uint32_t);
 template void toCanonical<double>(const TiledTable&, std::span<const double>, std::span<double>, std::uint32_t);
 

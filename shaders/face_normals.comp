@@ -2,6 +2,8 @@
 // shaders/face_normals.comp: first half of the per-frame normals. Face f's Newell normal
 // (twice its area along its normal) from the refined positions (the first three values of
 // each element), written per face: no atomics, so the result never depends on scheduling.
+// A quad's is computed as the cross product of its diagonals, (p2 - p0) x (p3 - p1), equal in
+// exact arithmetic and the CPU's way (compute/cpu_evaluator.cpp), operation for operation.
 // Face corners are faceVerts[offsets[f] .. offsets[f + 1]) (offsets chunk-relative).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -16,6 +18,12 @@ uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : cor
 // TABLE_B window (no offsets; one uvec4 fetch).
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kCorners = 0xffffffffu;
 
+vec3 quadNormal(vec3 p0, vec3 p1, vec3 p2, vec3 p3) {
+    precise vec3 a = p2 - p0, b = p3 - p1;
+    precise vec3 n = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+    return n;
+}
+
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
@@ -24,17 +32,17 @@ void main() {
         const uint base = pc.tableBase + 4u * row;
         const uvec4 c = kTexels ? texelFetch(tableTexelsB, int(base / 4u))
                                 : uvec4(corners[base], corners[base + 1u], corners[base + 2u], corners[base + 3u]);
-        const vec3 p[4] = vec3[4](readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz, readElement(c.w).xyz);
-        for (uint k = 0u; k < 4u; ++k) {
-            const vec3 a = p[k], b = p[(k + 1u) & 3u];
-            n.x += (a.y - b.y) * (a.z + b.z);
-            n.y += (a.z - b.z) * (a.x + b.x);
-            n.z += (a.x - b.x) * (a.y + b.y);
-        }
-        writeElement(pc.rowBase + row, vec4(n, 0.0));
+        writeElement(pc.rowBase + row, vec4(quadNormal(readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz,
+                                                       readElement(c.w).xyz), 0.0));
         return;
     }
     const uint begin = offsetAt(pc.tableBase + row), end = offsetAt(pc.tableBase + row + 1u);
+    if (end - begin == 4u) {
+        writeElement(pc.rowBase + row, vec4(quadNormal(readElement(entryAt(begin)).xyz, readElement(entryAt(begin + 1u)).xyz,
+                                                       readElement(entryAt(begin + 2u)).xyz,
+                                                       readElement(entryAt(begin + 3u)).xyz), 0.0));
+        return;
+    }
     const vec3 first = readElement(entryAt(begin)).xyz;
     vec3 a = first;
     for (uint c = begin; c < end; ++c) {

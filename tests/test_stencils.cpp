@@ -351,18 +351,38 @@ TEST(Evaluator, FloatLevelRowsAreBitIdenticalToTheScalarDefinition) {
     }
 }
 
-// Normals by the definition, in float: Newell sums per face in corner order, summed per
-// vertex in table order, normalised.
+// Newell's normal of a polygon (twice its area along its normal), in corner order.
+template <class T>
+void newell(const SurfaceTable& s, std::size_t f, const std::vector<T>& p, std::size_t stride, T n[3]) {
+    n[0] = n[1] = n[2] = 0;
+    for (std::uint32_t c = s.faceOffsets[f], end = s.faceOffsets[f + 1]; c < end; ++c) {
+        const T* a = &p[s.faceVerts[c] * stride];
+        const T* b = &p[s.faceVerts[c + 1 == end ? s.faceOffsets[f] : c + 1] * stride];
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+}
+
+// Normals by the definition, in float: Newell's normal per face (for a quad computed as the
+// cross product of its diagonals, (p2 - p0) x (p3 - p1), which it equals: checked below),
+// summed per vertex in table order, normalised.
 std::vector<float> referenceNormals(const SurfaceTable& s, const std::vector<float>& p, std::size_t stride) {
     std::vector<float> faceNormals(3 * (s.faceOffsets.size() - 1)), out(3 * std::size_t(s.vertexCount));
     for (std::size_t f = 0; f + 1 < s.faceOffsets.size(); ++f) {
         float n[3] = {0, 0, 0};
-        for (std::uint32_t c = s.faceOffsets[f], end = s.faceOffsets[f + 1]; c < end; ++c) {
-            const float* a = &p[s.faceVerts[c] * stride];
-            const float* b = &p[s.faceVerts[c + 1 == end ? s.faceOffsets[f] : c + 1] * stride];
-            n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-            n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-            n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        if (s.faceOffsets[f + 1] - s.faceOffsets[f] == 4) {
+            const float* p0 = &p[s.faceVerts[s.faceOffsets[f]] * stride];
+            const float* p1 = &p[s.faceVerts[s.faceOffsets[f] + 1] * stride];
+            const float* p2 = &p[s.faceVerts[s.faceOffsets[f] + 2] * stride];
+            const float* p3 = &p[s.faceVerts[s.faceOffsets[f] + 3] * stride];
+            const float a[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+            const float b[3] = {p3[0] - p1[0], p3[1] - p1[1], p3[2] - p1[2]};
+            n[0] = a[1] * b[2] - a[2] * b[1];
+            n[1] = a[2] * b[0] - a[0] * b[2];
+            n[2] = a[0] * b[1] - a[1] * b[0];
+        } else {
+            newell(s, f, p, stride, n);
         }
         std::copy(n, n + 3, &faceNormals[3 * f]);
     }
@@ -375,6 +395,27 @@ std::vector<float> referenceNormals(const SurfaceTable& s, const std::vector<flo
         for (int axis = 0; axis < 3; ++axis) out[3 * v + axis] = n[axis] * scale;
     }
     return out;
+}
+
+// A quad's diagonals' cross product is its Newell normal (exact arithmetic; here in double on
+// random, non-planar quads far from the origin, where only rounding separates them).
+TEST(Evaluator, AQuadsDiagonalCrossProductIsItsNewellNormal) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 2);
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    std::vector<double> p(3 * std::size_t(r.surface.vertexCount));
+    for (std::size_t i = 0; i < p.size(); ++i) p[i] = uniform(random) + (i % 3 == 0 ? 100.0 : 0.0);
+    for (std::size_t f = 0; f + 1 < r.surface.faceOffsets.size(); ++f) {
+        ASSERT_EQ(r.surface.faceOffsets[f + 1] - r.surface.faceOffsets[f], 4u);
+        double n[3];
+        newell(r.surface, f, p, 3, n);
+        const double* q[4];
+        for (int c = 0; c < 4; ++c) q[c] = &p[3 * std::size_t(r.surface.faceVerts[r.surface.faceOffsets[f] + c])];
+        const double a[3] = {q[2][0] - q[0][0], q[2][1] - q[0][1], q[2][2] - q[0][2]};
+        const double b[3] = {q[3][0] - q[1][0], q[3][1] - q[1][1], q[3][2] - q[1][2]};
+        const double cross[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+        for (int axis = 0; axis < 3; ++axis) ASSERT_NEAR(cross[axis], n[axis], 1e-10) << "face " << f;
+    }
 }
 
 TEST(Evaluator, FloatNormalsAreBitIdenticalToTheDefinition) {

@@ -152,7 +152,7 @@ TEST(Tiled, SharedBorderPointsAreBitwiseIdentical) {
         for (std::size_t k = 0; k < table.tileCount(); ++k) {
             const std::uint32_t L = table.lattice(k);
             std::vector<float> lattice(3 * std::size_t(L + 1) * (L + 1));
-            evaluateTile<float>(table, k, control.data(), 3, nullptr, scratch.data(), lattice.data());
+            evaluateTile<float>(table, k, control.data(), 3, nullptr, nullptr, scratch.data(), lattice.data());
             std::size_t e = table.borderBegin[k];
             for (std::uint32_t y = 0; y <= L; ++y)
                 for (std::uint32_t x = 0; x <= L; x += (y == 0 || y == L) ? 1 : L, ++e) {
@@ -247,6 +247,53 @@ TEST(Tiled, NormalsAreTheDefinitionOnTheTiledPositions) {
             for (std::size_t i = 0; i < expected.size(); ++i)
                 ASSERT_NEAR(canonicalNormals[i], expected[i], 1e-5) << "value " << i;
         }
+    }
+}
+
+// Normals computed in the tile pass (evaluate with a normals span): the same positions as
+// without, and normals within float rounding of normals() on them, on every model (their tiles'
+// inner points from the lattice, the rest over their faces), widths 3 and 4, 1 and 3 threads,
+// float and double. Tiles are met, so the tile pass's normals are covered.
+template <class T>
+void expectFusedNormals(const TiledTable& table, const std::vector<double>& positions, std::uint32_t width,
+                        int threads, double tolerance) {
+    CpuEvaluator<T> evaluator(table, width, threads);
+    std::vector<T> control;
+    for (std::size_t v = 0; v < positions.size() / 3; ++v)
+        for (std::uint32_t c = 0; c < width; ++c) control.push_back(T(c < 3 ? positions[3 * v + c] : 0.5 * c));
+    const std::size_t count = table.refinedCount;
+    std::vector<T> alone(width * count), fused(width * count), normals(3 * count, T(NAN)), expected(3 * count);
+    evaluator.evaluate(control, alone);
+    evaluator.evaluate(control, fused, normals);
+    ASSERT_EQ(fused, alone);
+    evaluator.normals(fused, expected);
+    for (std::size_t i = 0; i < expected.size(); ++i)
+        ASSERT_NEAR(double(normals[i]), double(expected[i]), tolerance) << "value " << i << " width " << width;
+}
+
+TEST(Tiled, NormalsInTheTilePassAreTheDefinition) {
+    std::size_t tiles = 0;
+    std::vector<std::string> models = test::allValidModels();
+    for (const std::string& path : models)
+        for (int steps : {2, 3, 5}) {
+            if (steps == 5 && path.find("cow") != std::string::npos) continue;
+            SCOPED_TRACE(path + " steps " + std::to_string(steps));
+            const test::Loaded loaded = test::load(path);
+            const Hierarchy h = test::refine(loaded, steps);
+            const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+            tiles += table.tileCount();
+            expectFusedNormals<float>(table, loaded.mesh.positions, 3, 2, 1e-5);
+        }
+    EXPECT_GT(tiles, 0u);
+    const test::Loaded torus = loadTorus(32, 24);
+    for (int steps : {2, 4, 6}) {
+        SCOPED_TRACE("torus steps " + std::to_string(steps));
+        const Hierarchy h = test::refine(torus, steps);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        ASSERT_GT(table.tileCount(), 0u);
+        for (std::uint32_t width : {3u, 4u})
+            for (int threads : {1, 3}) expectFusedNormals<float>(table, torus.mesh.positions, width, threads, 1e-5);
+        expectFusedNormals<double>(table, torus.mesh.positions, 3, 2, 1e-12);
     }
 }
 

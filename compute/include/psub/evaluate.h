@@ -50,7 +50,8 @@ EvaluatorTables tablesOf(const Refinement& r) {
 }
 
 // Host-side milliseconds of the last evaluate(): writing control points where the backend
-// reads them, the stencils, the normals, copying results back (0 where a stage is not separate).
+// reads them, the stencils, the normals, copying results back (0 where a stage is not separate:
+// the CPU backend's tiled form computes normals in its tile pass, counted in evaluateMs).
 struct StageTimes {
     double uploadMs = 0, evaluateMs = 0, normalsMs = 0, readbackMs = 0;
 };

@@ -37,13 +37,16 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source,
                             std::uint32_t rowEnd);
 
 // Tile k of a tiled table (psub/tiled.h): `base` holds level B's vertices (`width` packed
-// values each), `refined` the finest level in drawing order; writes the points the tile owns.
-// `scratch`: tileScratchSize values. With `lattice`, writes instead the tile's whole
-// (L + 1) x (L + 1) lattice there, row by row, its border points included (for tests).
+// values each), `refined` the finest level in drawing order; writes the points the tile owns,
+// and with `normals` (3 per vertex, drawing order; width >= 3) the unit normals of its inner
+// points (those of the tile's range whose four faces are all in its lattice: not its border
+// points), from the lattice while it is in cache. `scratch`: tileScratchSize values. With
+// `lattice`, writes instead the tile's whole (L + 1) x (L + 1) lattice there, row by row, its
+// border points included (for tests).
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width);
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
-                  T* scratch, T* lattice = nullptr);
+                  T* normals, T* scratch, T* lattice = nullptr);
 
 // The tiled form's output (drawing order) rearranged into the canonical order of docs/scheme.md
 // (what `psub subdivide` writes): canonical[table.canonical[p]] = drawing[p].
@@ -79,6 +82,12 @@ public:
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
+    // The same and, when `normals` is not empty (3 * refinedCount() values; width() >= 3), the
+    // refined positions' unit normals as normals() defines them. The tiled form computes its
+    // tiles' inner points' normals in the tile pass (the lattice still in cache; the sums of
+    // the same four face normals in another order, so within float rounding of normals()) and
+    // the rest over only the faces that touch them; the other forms call normals().
+    void evaluate(std::span<const T> control, std::span<T> refined, std::span<T> normals);
 
     // Unit vertex normals (3 per vertex) of the refined surface whose positions are the first
     // three values of each `width()`-element of `refined`: area-weighted face normals summed
@@ -86,13 +95,17 @@ public:
     void normals(std::span<const T> refined, std::span<T> normals);
 
 private:
-    // The two passes of normals(), run by each thread of its team on its share.
-    void faceNormalsScalar(const T* positions);
-    void vertexNormalsScalar(T* normals) const;
-    void faceNormalsSimd(const T* positions);   // float only
-    void vertexNormalsSimd(T* normals) const;   // float only
+    // The two passes of normals(), run by each thread of its team on its share: of every face
+    // and vertex, or (`only` not null) of the listed ones.
+    void faceNormalsScalar(const T* positions, const std::vector<std::uint32_t>* only = nullptr);
+    void vertexNormalsScalar(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;
+    void faceNormalsSimd(const T* positions, const std::vector<std::uint32_t>* only = nullptr);  // float only
+    void vertexNormalsSimd(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;  // float only
+    // Both passes, inside a parallel region (a barrier between them).
+    void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
+                      const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
-    void evaluateTiled(std::span<const T> control, std::span<T> refined, int team);
+    void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
 
     const PerLevelTable& perLevel_;
     const FactorizedTable& factorized_;
@@ -106,6 +119,9 @@ private:
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f
     const TiledTable* tiled_ = nullptr;
     std::vector<T> tileScratch_;  // per thread: tileScratchSize values
+    // Tiled form: the vertices whose normals the tile pass does not compute (tiles' border
+    // points, the fallback's) and the faces that touch them, ascending.
+    std::vector<std::uint32_t> restVertices_, restFaces_;
 };
 
 // Refines a face-varying channel (psub/tables.h) on the calling thread: `control` holds
