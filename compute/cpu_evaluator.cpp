@@ -87,21 +87,52 @@ CpuEvaluator<T>::CpuEvaluator(const TiledTable& tiled, std::uint32_t width, int 
     if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
     allocate();
     tileScratch_.resize(tileScratchSize(tiled, width) * std::size_t(threads_));
-    // The tiles' inner points: each tile's first (L - 1)^2 drawing positions.
-    std::vector<char> inner(tiled.surface.vertexCount, 0);
+    findTileNormalSets();
+}
+
+// The tiles' inner points (each tile's first (L - 1)^2 drawing positions) get their normals in
+// the tile pass, and the faces of each tile's outer ring of quads their face normals; the rest
+// (restVertices_, and the faces touching them that no ring holds: restFaces_) after it.
+template <class T>
+void CpuEvaluator<T>::findTileNormalSets() {
+    const TiledTable& tiled = *tiled_;
+    const SurfaceTable& surface = tiled.surface;
+    std::vector<char> inner(surface.vertexCount, 0), inRing(surface.faceOffsets.size() - 1, 0);
     for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
         const std::uint32_t L = tiled.lattice(k);
         std::fill_n(inner.begin() + tiled.output[k], std::size_t(L - 1) * (L - 1), char(1));
+        // The drawing position of lattice point (x, y), and the face of quad (x, y)-(x+1, y+1).
+        const auto at = [&](std::uint32_t x, std::uint32_t y) {
+            if (x > 0 && x < L && y > 0 && y < L) return tiled.output[k] + (y - 1) * (L - 1) + x - 1;
+            const std::uint32_t e = y == 0 ? x : y == L ? 3 * L - 1 + x : L + 2 * y - 1 + (x == L ? 1 : 0);
+            return tiled.border[tiled.borderBegin[k] + e];
+        };
+        const auto face = [&](std::uint32_t x, std::uint32_t y) {
+            const std::uint32_t corner = at(x, y), opposite = at(x + 1, y + 1);
+            for (std::uint32_t i = surface.vertexOffsets[corner]; i < surface.vertexOffsets[corner + 1]; ++i) {
+                const std::uint32_t f = surface.vertexFaces[i];
+                const auto begin = surface.faceVerts.begin() + surface.faceOffsets[f];
+                const auto end = surface.faceVerts.begin() + surface.faceOffsets[f + 1];
+                if (end - begin == 4 && std::find(begin, end, opposite) != end) return f;
+            }
+            throw std::logic_error("CpuEvaluator: a tile's lattice quad is not a face of the tiled table's surface");
+        };
+        ringBegin_.push_back(std::uint32_t(ringFaces_.size()));
+        for (std::uint32_t y = 0; y < L; ++y)
+            for (std::uint32_t x = 0; x < L; x += (y == 0 || y + 1 == L) ? 1 : L - 1) {
+                ringFaces_.push_back(face(x, y));
+                inRing[ringFaces_.back()] = 1;
+            }
     }
-    std::vector<char> touched(tiled.surface.faceOffsets.size() - 1, 0);
-    for (std::uint32_t v = 0; v < tiled.surface.vertexCount; ++v) {
+    std::vector<char> touched(surface.faceOffsets.size() - 1, 0);
+    for (std::uint32_t v = 0; v < surface.vertexCount; ++v) {
         if (inner[v]) continue;
         restVertices_.push_back(v);
-        for (std::uint32_t i = tiled.surface.vertexOffsets[v]; i < tiled.surface.vertexOffsets[v + 1]; ++i)
-            touched[tiled.surface.vertexFaces[i]] = 1;
+        for (std::uint32_t i = surface.vertexOffsets[v]; i < surface.vertexOffsets[v + 1]; ++i)
+            touched[surface.vertexFaces[i]] = 1;
     }
     for (std::uint32_t f = 0; f < touched.size(); ++f)
-        if (touched[f]) restFaces_.push_back(f);
+        if (touched[f] && !inRing[f]) restFaces_.push_back(f);
 }
 
 template <class T>
@@ -190,7 +221,9 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         T* scratch = tileScratch_.data() + std::size_t(omp_get_thread_num()) * scratchSize;
 #pragma omp for schedule(dynamic, 8)
         for (std::size_t k = 0; k < tiled.tileCount(); ++k)
-            evaluateTile(tiled, k, base, width_, refined.data(), normals, scratch);
+            evaluateTile(tiled, k, base, width_, refined.data(),
+                         TileNormals<T>{normals, faceNormals_.data(), ringFaces_.data() + (normals ? ringBegin_[k] : 0)},
+                         scratch);
         // After the loop's implicit barrier every position is written.
         if (normals) normalPasses(refined.data(), normals, &restFaces_, &restVertices_);
     }

@@ -216,7 +216,7 @@ std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
 // rows, two rows of quad normals and one of unit normals.
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
-                  T* normals, T* scratch, T* lattice) {
+                  const TileNormals<T>& normals, T* scratch, T* lattice) {
     const std::size_t largest = largestGrid(table), area = largest * largest,
                       plane = std::size_t(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1);
     T *a = scratch, *b = scratch + area, *qv = scratch + 2 * area, *qf = scratch + 3 * area;
@@ -278,20 +278,32 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         }
     }
     streamCopy(packed, std::size_t(out - packed), refined + std::size_t(begin) * width);
-    if (normals) {  // the inner points' normals, from the lattice's first three values
+    if (normals.normals) {  // the inner points' normals, from the lattice's first three values
         const std::size_t stride = 3 * std::size_t(side);
         T* rows[2] = {quads, quads + stride};
         const T *x = finals, *y = finals + plane, *z = finals + 2 * plane;
+        // Row r of quad normals: its ring quads' to their faces (all of rows 0 and L - 1, the
+        // ends of the others).
+        const std::uint32_t* ring = normals.ringFaces;
+        const auto toFaces = [&](const T* q, std::uint32_t r) {
+            if (!normals.faceNormals) return;
+            for (std::uint32_t i = 0; i < L; i += (r == 0 || r + 1 == L) ? 1 : L - 1) {
+                T* f = normals.faceNormals + 4 * std::size_t(*ring++);
+                f[0] = q[i], f[1] = q[side + i], f[2] = q[2 * side + i], f[3] = 0;
+            }
+        };
         quadNormals(x, y, z, side, L, rows[0], rows[0] + side, rows[0] + 2 * side);
+        toFaces(rows[0], 0);
         T* unit = quads + 2 * stride;  // one row's unit normals, 3 planes
         for (std::uint32_t r = 1; r < L; ++r) {
             T* lo = rows[(r - 1) % 2];
             T* hi = rows[r % 2];
             quadNormals(x + r * side, y + r * side, z + r * side, side, L, hi, hi + side, hi + 2 * side);
+            toFaces(hi, r);
             vertexNormals(lo, hi, side, L, unit, unit + side, unit + 2 * side);
             interleave3(unit, unit + side, unit + 2 * side, L - 1, packed + 3 * std::size_t(r - 1) * (L - 1));
         }
-        streamCopy(packed, 3 * std::size_t(L - 1) * (L - 1), normals + 3 * std::size_t(begin));
+        streamCopy(packed, 3 * std::size_t(L - 1) * (L - 1), normals.normals + 3 * std::size_t(begin));
     }
     const std::uint32_t* border = table.border.data() + table.borderBegin[k];
     std::size_t e = 0;
@@ -307,10 +319,10 @@ void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<
         std::copy_n(drawing.data() + p * width, width, canonical.data() + std::size_t(table.canonical[p]) * width);
 }
 
-template void evaluateTile<float>(const TiledTable&, std::size_t, const float*, std::uint32_t, float*, float*, float*,
-                                  float*);
-template void evaluateTile<double>(const TiledTable&, std::size_t, const double*, std::uint32_t, double*, double*,
-                                   double*, double*);
+template void evaluateTile<float>(const TiledTable&, std::size_t, const float*, std::uint32_t, float*,
+                                  const TileNormals<float>&, float*, float*);
+template void evaluateTile<double>(const TiledTable&, std::size_t, const double*, std::uint32_t, double*,
+                                   const TileNormals<double>&, double*, double*);
 template void toCanonical<float>(const TiledTable&, std::span<const float>, std::span<float>, std::uint32_t);
 template void toCanonical<double>(const TiledTable&, std::span<const double>, std::span<double>, std::uint32_t);
 

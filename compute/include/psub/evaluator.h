@@ -36,17 +36,28 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source,
                             BufferLayout destinationLayout, std::uint32_t rowBegin,
                             std::uint32_t rowEnd);
 
+// What a tile writes besides its points when normals are asked for (width >= 3), from its
+// lattice while it is in cache: the unit normals of its inner points (3 per vertex, drawing
+// order; its border points' faces are not all in its lattice) and, when `faceNormals` is given,
+// the face normals (4 values per face: x, y, z, 0, as CpuEvaluator keeps them) of the quads on
+// its lattice's outer ring, the ring's i-th quad at face ringFaces[i] (row 0 of quads, then the
+// first and last quad of each row between, then row L - 1).
+template <class T>
+struct TileNormals {
+    T* normals = nullptr;
+    T* faceNormals = nullptr;
+    const std::uint32_t* ringFaces = nullptr;
+};
+
 // Tile k of a tiled table (psub/tiled.h): `base` holds level B's vertices (`width` packed
-// values each), `refined` the finest level in drawing order; writes the points the tile owns,
-// and with `normals` (3 per vertex, drawing order; width >= 3) the unit normals of its inner
-// points (those of the tile's range whose four faces are all in its lattice: not its border
-// points), from the lattice while it is in cache. `scratch`: tileScratchSize values. With
+// values each), `refined` the finest level in drawing order; writes the points the tile owns
+// and, with `normals.normals`, the normals above. `scratch`: tileScratchSize values. With
 // `lattice`, writes instead the tile's whole (L + 1) x (L + 1) lattice there, row by row, its
 // border points included (for tests).
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width);
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
-                  T* normals, T* scratch, T* lattice = nullptr);
+                  const TileNormals<T>& normals, T* scratch, T* lattice = nullptr);
 
 // The tiled form's output (drawing order) rearranged into the canonical order of docs/scheme.md
 // (what `psub subdivide` writes): canonical[table.canonical[p]] = drawing[p].
@@ -105,6 +116,7 @@ private:
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
+    void findTileNormalSets();                   // the tiled form's rest and ring lists
     void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
 
     const PerLevelTable& perLevel_;
@@ -120,8 +132,9 @@ private:
     const TiledTable* tiled_ = nullptr;
     std::vector<T> tileScratch_;  // per thread: tileScratchSize values
     // Tiled form: the vertices whose normals the tile pass does not compute (tiles' border
-    // points, the fallback's) and the faces that touch them, ascending.
-    std::vector<std::uint32_t> restVertices_, restFaces_;
+    // points, the fallback's) and the faces that touch them that no tile's ring holds,
+    // ascending; each tile's ring faces (TileNormals), from ringBegin_[k].
+    std::vector<std::uint32_t> restVertices_, restFaces_, ringFaces_, ringBegin_;
 };
 
 // Refines a face-varying channel (psub/tables.h) on the calling thread: `control` holds
