@@ -1,10 +1,12 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
-// levels (either boundary mode), turned into all three table forms and evaluated; the counts must match the closed
-// form and the table forms must agree (the tiled one once put back in canonical order); within the numeric-range
+// levels (either boundary mode), turned into all three table forms and evaluated (the tiled one
+// also with its normals in the tile pass); the counts must match the closed form and the table
+// forms must agree (the tiled one once put back in canonical order); within the numeric-range
 // policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
+#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -35,6 +37,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         tiled.evaluate(mesh.positions, drawing);
         psub::toCanonical<double>(r.tiled, drawing, c, 3);
         tiled.normals(drawing, normals);
+        std::vector<double> fused(a.size());  // positions and normals in one pass: the same positions
+        tiled.evaluate(mesh.positions, fused, normals);
+        for (std::size_t i = 0; i < fused.size(); ++i)
+            if (std::bit_cast<std::uint64_t>(fused[i]) != std::bit_cast<std::uint64_t>(drawing[i])) std::abort();
         perLevel.normals(a, normals);
         double scale = 1;
         for (double p : mesh.positions) scale = std::max(scale, std::abs(p));
