@@ -133,6 +133,10 @@ void CpuEvaluator<T>::findTileNormalSets() {
     }
     for (std::uint32_t f = 0; f < touched.size(); ++f)
         if (touched[f] && !inRing[f]) restFaces_.push_back(f);
+    // Listed vertices cost more each than the plain pass's (an index, scattered reads): where the
+    // tiles' inner points are not most of the mesh, the plain pass after the positions is faster
+    // (the cow at 7 steps, 20% tiled: 43 ms against 56 ms for both on one thread).
+    tileNormals_ = 2 * restVertices_.size() < std::size_t(surface.vertexCount);
 }
 
 template <class T>
@@ -188,7 +192,7 @@ template <class T>
 void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined, std::span<T> normals) {
     if (normals.empty()) return evaluate(control, refined);
     assert(width_ >= 3 && normals.size() >= 3 * std::size_t(refinedCount()));
-    if (form_ != TableForm::Tiled || perLevel_.levels.empty()) {
+    if (form_ != TableForm::Tiled || perLevel_.levels.empty() || !tileNormals_) {
         evaluate(control, refined);
         return this->normals(refined, normals);
     }

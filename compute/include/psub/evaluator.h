@@ -90,14 +90,17 @@ public:
     std::uint32_t refinedCount() const { return perLevel_.refinedCount(); }
     std::uint32_t width() const { return width_; }
     int threads() const { return threads_; }
+    // The tiled form computes most normals in its tile pass (evaluate with normals, below).
+    bool normalsInTilePass() const { return tileNormals_; }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
     // The same and, when `normals` is not empty (3 * refinedCount() values; width() >= 3), the
-    // refined positions' unit normals as normals() defines them. The tiled form computes its
-    // tiles' inner points' normals in the tile pass (the lattice still in cache; the sums of
-    // the same four face normals in another order, so within float rounding of normals()) and
-    // the rest over only the faces that touch them; the other forms call normals().
+    // refined positions' unit normals as normals() defines them. The tiled form, where its
+    // tiles' inner points are most of the points, computes theirs in the tile pass (the lattice
+    // still in cache; the sums of the same four face normals in another order, so within float
+    // rounding of normals()) and the rest over only the faces that touch them; otherwise, and
+    // the other forms, call normals() after the positions.
     void evaluate(std::span<const T> control, std::span<T> refined, std::span<T> normals);
 
     // Unit vertex normals (3 per vertex) of the refined surface whose positions are the first
@@ -135,6 +138,7 @@ private:
     // points, the fallback's) and the faces that touch them that no tile's ring holds,
     // ascending; each tile's ring faces (TileNormals), from ringBegin_[k].
     std::vector<std::uint32_t> restVertices_, restFaces_, ringFaces_, ringBegin_;
+    bool tileNormals_ = false;  // normals in the tile pass: the tiles' inner points are most points
 };
 
 // Refines a face-varying channel (psub/tables.h) on the calling thread: `control` holds
