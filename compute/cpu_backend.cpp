@@ -26,7 +26,8 @@ public:
     CpuBackend(const EvaluatorTables& tables, TableForm form, int threads)
         : evaluator_(makeCpu(tables, form, threads)),
           surface_(form == TableForm::Tiled ? tables.tiled.surface : tables.surface),
-          positions_(3 * std::size_t(evaluator_.refinedCount())), fusedNormals_(form == TableForm::Tiled) {}
+          positions_(3 * std::size_t(evaluator_.refinedCount())),
+          fusedNormals_(form == TableForm::Tiled && evaluator_.normalsInTilePass()) {}
 
     void evaluateKept(std::span<const float> control, bool withNormals) override {
         if (withNormals && normals_.size() != positions_.size()) normals_.resize(positions_.size());  // once
@@ -63,7 +64,7 @@ private:
     const SurfaceTable& surface_;
     std::vector<float> positions_;  // the results when the caller passes no refined span
     std::vector<float> normals_;    // evaluateKept's normals (allocated on its first use)
-    bool fusedNormals_;             // the tiled form: normals in the tile pass (CpuEvaluator::evaluate)
+    bool fusedNormals_;             // normals in the tiled form's tile pass (CpuEvaluator::evaluate)
     StageTimes times_;
 };
 
