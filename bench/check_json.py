@@ -71,6 +71,14 @@ def main():
         if record["floor_ms"] <= 0 or abs(record["floor_ratio"] * record["floor_ms"] - record["frame_ms_median"]) > \
                 1e-6 * max(1.0, record["frame_ms_median"]):
             fail(f"floor_ratio is not frame_ms_median / floor_ms: {record}")
+        if record["evaluator"].startswith("psub-"):  # frames with normals, against 24 B per vertex
+            for key in ("normals_frame_ms_median", "normals_floor_ms", "normals_floor_ratio"):
+                if not isinstance(record.get(key), (int, float)) or record[key] <= 0:
+                    fail(f"PSub record lacks {key!r}: {record}")
+            if abs(record["normals_floor_ms"] - 2 * record["floor_ms"]) > 1e-9 * record["floor_ms"] or \
+                    abs(record["normals_floor_ratio"] * record["normals_floor_ms"] -
+                        record["normals_frame_ms_median"]) > 1e-6 * max(1.0, record["normals_frame_ms_median"]):
+                fail(f"normals_floor_ms is not 24 B per vertex or its ratio is off: {record}")
     seen = {r["evaluator"] for r in results}
     if not EVALUATORS <= seen:
         fail(f"evaluators missing: {sorted(EVALUATORS - seen)}")

@@ -163,6 +163,25 @@ TEST(Procedural, BendPutsTheAxisOnAnArcOfTheDocumentedCurvature) {
     }
 }
 
+// A mesh large enough to be deformed on all cores gives, for every vertex, what deforming that
+// vertex alone (one thread) gives: the threads change nothing.
+TEST(Procedural, LargeMeshesOnAllCoresEqualEachVertexAlone) {
+    std::mt19937 random(3);
+    std::uniform_real_distribution<float> uniform(-2.0f, 2.0f);
+    std::vector<float> rest(3 * 40000);
+    for (float& x : rest) x = uniform(random);
+    const RestBounds bounds = restBounds(rest);
+    std::vector<float> out(rest.size()), one(3);
+    for (Procedural kind : {Procedural::Wave, Procedural::Twist, Procedural::Bend}) {
+        deformProcedural(kind, bounds, rest, 0.7, out);
+        for (std::size_t i = 0; i < rest.size(); i += 3) {
+            deformProcedural(kind, bounds, std::span<const float>(rest).subspan(i, 3), 0.7, one);
+            ASSERT_TRUE(std::equal(one.begin(), one.end(), out.begin() + std::ptrdiff_t(i)))
+                << proceduralName(kind) << " vertex " << i / 3;
+        }
+    }
+}
+
 TEST(Procedural, DeformingAllocatesNothing) {
     const std::vector<float> rest = lattice();
     std::vector<float> out(rest.size());
