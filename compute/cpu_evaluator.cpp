@@ -101,14 +101,9 @@ void CpuEvaluator<T>::findTileNormalSets() {
     for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
         const std::uint32_t L = tiled.lattice(k);
         std::fill_n(inner.begin() + tiled.output[k], std::size_t(L - 1) * (L - 1), char(1));
-        // The drawing position of lattice point (x, y), and the face of quad (x, y)-(x+1, y+1).
-        const auto at = [&](std::uint32_t x, std::uint32_t y) {
-            if (x > 0 && x < L && y > 0 && y < L) return tiled.output[k] + (y - 1) * (L - 1) + x - 1;
-            const std::uint32_t e = y == 0 ? x : y == L ? 3 * L - 1 + x : L + 2 * y - 1 + (x == L ? 1 : 0);
-            return tiled.border[tiled.borderBegin[k] + e];
-        };
+        // The face of quad (x, y)-(x+1, y+1).
         const auto face = [&](std::uint32_t x, std::uint32_t y) {
-            const std::uint32_t corner = at(x, y), opposite = at(x + 1, y + 1);
+            const std::uint32_t corner = tiled.drawingPosition(k, x, y), opposite = tiled.drawingPosition(k, x + 1, y + 1);
             for (std::uint32_t i = surface.vertexOffsets[corner]; i < surface.vertexOffsets[corner + 1]; ++i) {
                 const std::uint32_t f = surface.vertexFaces[i];
                 const auto begin = surface.faceVerts.begin() + surface.faceOffsets[f];

@@ -56,6 +56,14 @@ struct TiledTable {
     std::size_t tileCount() const { return side.size(); }
     std::uint32_t lattice(std::size_t k) const { return side[k] << doubleSteps; }  // L
     std::uint32_t gridSize(std::size_t k) const { return side[k] + 2 * halo + 1; }  // g
+    // The drawing position of tile k's lattice point (x, y), 0 <= x, y <= L (a border point's
+    // may be another tile's or the fallback's).
+    std::uint32_t drawingPosition(std::size_t k, std::uint32_t x, std::uint32_t y) const {
+        const std::uint32_t L = lattice(k);
+        if (x > 0 && x < L && y > 0 && y < L) return output[k] + (y - 1) * (L - 1) + x - 1;
+        const std::uint32_t e = y == 0 ? x : y == L ? 3 * L - 1 + x : L + 2 * y - 1 + (x == L ? 1 : 0);
+        return border[borderBegin[k] + e];
+    }
     // Bytes needed to evaluate (not counting `canonical`, used only to write canonical order,
     // nor `surface` and the channel's faces, used only to draw).
     std::uint64_t bytes() const {
