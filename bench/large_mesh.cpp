@@ -1,7 +1,9 @@
 // Large-mesh run (a benchmark, not a test): refines a generated N x N quad torus until it has
-// at least TARGET faces, evaluates one frame, and reports time, peak memory and bytes per
-// refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32 entries.
-//   psub_large_mesh [N=512] [TARGET_FACES=50000000]
+// at least TARGET faces, evaluates three frames with the per-level table (or, with `tiled`,
+// positions and then positions + normals with the tiled form), and reports time, peak memory
+// and bytes per refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32
+// entries.
+//   psub_large_mesh [N=512] [TARGET_FACES=50000000] [per-level|tiled]
 #include "bench.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -33,25 +35,53 @@ int main(int argc, char** argv) {
     while (double(n) * n * std::pow(2.0, levels) < target) ++levels;
     std::printf("torus %u x %u (%u faces), %d P-S levels\n", n, n, n * n, levels);
     auto start = Clock::now();
+    const std::string form = argc > 3 ? argv[3] : "per-level";
+    if (form != "per-level" && form != "tiled") {
+        std::fprintf(stderr, "psub_large_mesh: the form is per-level or tiled, not %s\n", form.c_str());
+        return 2;
+    }
+    const bool tiled = form == "tiled";
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
+    options.tiled = tiled;
     options.onLevel = [](int level, double seconds) {
         std::fprintf(stderr, "level %d: topology %.2f s, peak %.2f GiB\n", level, seconds, peakGiB());
     };
-    const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
+    psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
     const double buildSeconds = std::chrono::duration<double>(Clock::now() - start).count();
     const double faces = double(r.surface.faceOffsets.size() - 1);
-    std::printf("refined: %.0f faces, %u vertices; topology %.2f s, tables %.2f s, total %.2f s; "
-                "table %.2f GiB (%llu indices)\n",
-                faces, r.perLevel.refinedCount(), r.topologyMs / 1e3, r.perLevelMs / 1e3, buildSeconds,
-                double(r.perLevel.bytes()) / (1u << 30), (unsigned long long)r.perLevel.indices.size());
-    psub::CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel);
+    std::printf("refined: %.0f faces, %u vertices; topology %.2f s, tables %.2f s, tiled form %.2f s, total %.2f s; "
+                "per-level table %.2f GiB (%llu indices); peak so far %.2f GiB\n",
+                faces, r.perLevel.refinedCount(), r.topologyMs / 1e3, r.perLevelMs / 1e3, r.tiledMs / 1e3, buildSeconds,
+                double(r.perLevel.bytes()) / (1u << 30), (unsigned long long)r.perLevel.indices.size(), peakGiB());
     std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
-    std::vector<float> refined(3 * std::size_t(evaluator.refinedCount()));
-    for (int frame = 0; frame < 3; ++frame) {
-        start = Clock::now();
-        evaluator.evaluate(control, refined);
-        std::printf("frame %d: %.1f ms (%d threads)\n", frame,
-                    std::chrono::duration<double, std::milli>(Clock::now() - start).count(), evaluator.threads());
+    std::vector<float> refined(3 * std::size_t(r.perLevel.refinedCount()));
+    const auto time = [&](const char* what, auto&& evaluate, int threads) {
+        for (int frame = 0; frame < 3; ++frame) {
+            start = Clock::now();
+            evaluate();
+            std::printf("frame %d (%s): %.1f ms (%d threads)\n", frame, what,
+                        std::chrono::duration<double, std::milli>(Clock::now() - start).count(), threads);
+        }
+    };
+    if (tiled) {
+        // The tiled evaluator reads only the tiled form: the per-level table and the canonical
+        // surface go before it allocates.
+        r.perLevel = {};
+        r.surface = {};
+        std::printf("tiled form: %zu tiles, %u of %u points in the fallback, %.2f GiB\n", r.tiled.tileCount(),
+                    r.tiled.refinedCount - r.tiled.fallbackBegin, r.tiled.refinedCount, double(r.tiled.bytes()) / (1u << 30));
+        psub::CpuEvaluator<float> evaluator(r.tiled);
+        time("positions", [&] { evaluator.evaluate(control, refined); }, evaluator.threads());
+        std::vector<float> normals(refined.size());
+        time("positions + normals", [&] { evaluator.evaluate(control, refined, normals); }, evaluator.threads());
+        for (float value : normals)
+            if (!(std::abs(value) <= 1.0f + 1e-5f)) {
+                std::printf("FAILED: normal component %g is not that of a unit vector\n", double(value));
+                return 1;
+            }
+    } else {
+        psub::CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel);
+        time("positions", [&] { evaluator.evaluate(control, refined); }, evaluator.threads());
     }
     // Sanity: every refined point stays within the torus's bounding box.
     for (float value : refined)

@@ -411,21 +411,25 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             out.uvMs += ms(start);
             start = Clock::now();
         }
-        Level child = refineLevel(parent, split);
-        const double topologyMs = ms(start);
-        out.topologyMs += topologyMs;
-        start = Clock::now();
         appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules, corners);
         out.perLevelMs += ms(start);
+        start = Clock::now();
+        parent = refineLevel(std::move(parent), split);  // frees the parent while the child grows
+        const double topologyMs = ms(start);
+        out.topologyMs += topologyMs;
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
-        parent = std::move(child);
         planTiles(k);
     }
+    // The finest level's edges are not read again (the tiled form walks half-edges and vertex
+    // rings; the surface takes the faces), nor, after the tiled form, its connectivity.
+    parent.connectivity.edgeOf = {};
+    parent.connectivity.edgeHalfedge = {};
     if (options.tiled) {
         const auto start = Clock::now();
-        out.tiled = buildTiledTable(out.perLevel, base, parent, plan);
+        out.tiled = buildTiledTableFreeingConnectivity(out.perLevel, base, parent, plan);
         out.tiledMs = ms(start);
     }
+    parent.connectivity = {};
     if (uv) setFaceVaryingFaces(out.uv, uvLevel);
     if (uv && options.tiled) {
         const auto start = Clock::now();

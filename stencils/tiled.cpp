@@ -175,7 +175,10 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
     return {std::uint32_t(levelCount) - 2 * t, t};
 }
 
-TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan) {
+namespace {
+
+TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan,
+                      Connectivity* release) {
     static constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};
     if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
         throw std::invalid_argument("buildTiledTable: the plan does not fit the per-level table");
@@ -228,6 +231,7 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
         }
     }
     table.side.shrink_to_fit();
+    if (release) *release = Connectivity{};
     table.fallbackBegin = next;
     std::vector<std::uint8_t> needed(table.refinedCount, 0);
     for (std::uint32_t v = 0; v < table.refinedCount; ++v)
@@ -282,6 +286,17 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
     }
     table.surface = buildSurfaceTable(std::move(faces));
     return table;
+}
+
+}  // namespace
+
+TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan) {
+    return buildTiled(perLevel, base, finest, plan, nullptr);
+}
+
+TiledTable buildTiledTableFreeingConnectivity(const PerLevelTable& perLevel, const Level& base, Level& finest,
+                                              TiledPlan plan) {
+    return buildTiled(perLevel, base, finest, plan, &finest.connectivity);
 }
 
 void setTiledFaceVaryingFaces(TiledTable& tiled, const FaceVaryingTable& channel) {

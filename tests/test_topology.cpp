@@ -251,28 +251,36 @@ TEST(Topology, ReversedInputStaysReversed) {
 }
 
 TEST(Topology, DirectLevelConstructionEqualsGenericBuild) {
+    // Both forms of refineLevel: from a parent kept, and from one consumed (freed meanwhile).
+    const auto expectLevel = [](const Level& direct, const Faces& generic, const Connectivity& built) {
+        ASSERT_EQ(direct.faces.vertexCount, generic.vertexCount);
+        ASSERT_EQ(direct.faces.offsets, generic.offsets);
+        ASSERT_EQ(direct.faces.verts, generic.verts);
+        EXPECT_EQ(direct.connectivity.faceOf, built.faceOf);
+        EXPECT_EQ(direct.connectivity.next, built.next);
+        EXPECT_EQ(direct.connectivity.twin, built.twin);
+        EXPECT_EQ(direct.connectivity.edgeOf, built.edgeOf);
+        EXPECT_EQ(direct.connectivity.edgeHalfedge, built.edgeHalfedge);
+        EXPECT_EQ(direct.connectivity.outOffsets, built.outOffsets);
+        EXPECT_EQ(direct.connectivity.outgoing, built.outgoing);
+        EXPECT_EQ(direct.connectivity.valence, built.valence);
+        EXPECT_EQ(direct.connectivity.kind, built.kind);
+        EXPECT_EQ(direct.connectivity.boundaryEdgeCount, built.boundaryEdgeCount);
+    };
     for (const std::string& path : test::allValidModels()) {
         SCOPED_TRACE(path);
         const auto loaded = load(path);
         Level parent{loaded.mesh.faces, loaded.checked.connectivity};
         for (int step = 0; step < 4; ++step) {
             const bool split = step % 2 == 1;  // both kinds of step, each from both kinds of parent
-            const Level direct = refineLevel(parent, split);
             const Faces generic = refineFaces(parent.faces, parent.connectivity, split);
             const Connectivity built = buildConnectivity(generic);
-            ASSERT_EQ(direct.faces.vertexCount, generic.vertexCount);
-            ASSERT_EQ(direct.faces.offsets, generic.offsets);
-            ASSERT_EQ(direct.faces.verts, generic.verts);
-            EXPECT_EQ(direct.connectivity.faceOf, built.faceOf);
-            EXPECT_EQ(direct.connectivity.next, built.next);
-            EXPECT_EQ(direct.connectivity.twin, built.twin);
-            EXPECT_EQ(direct.connectivity.edgeOf, built.edgeOf);
-            EXPECT_EQ(direct.connectivity.edgeHalfedge, built.edgeHalfedge);
-            EXPECT_EQ(direct.connectivity.outOffsets, built.outOffsets);
-            EXPECT_EQ(direct.connectivity.outgoing, built.outgoing);
-            EXPECT_EQ(direct.connectivity.valence, built.valence);
-            EXPECT_EQ(direct.connectivity.kind, built.kind);
-            EXPECT_EQ(direct.connectivity.boundaryEdgeCount, built.boundaryEdgeCount);
+            const Level direct = refineLevel(parent, split);
+            expectLevel(direct, generic, built);
+            Level consumed = parent;
+            expectLevel(refineLevel(std::move(consumed), split), generic, built);
+            EXPECT_TRUE(consumed.faces.verts.empty() && consumed.faces.faceCount() == 0 &&
+                        consumed.connectivity.twin.empty() && consumed.connectivity.outgoing.empty());
             parent = direct;
         }
     }

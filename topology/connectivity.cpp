@@ -102,6 +102,9 @@ void completeConnectivity(const Faces& faces, Connectivity& c) {
     const Index halfedges = Index(faces.verts.size());
     c.edgeOf.assign(halfedges, kNoIndex);
     c.edgeHalfedge.clear();
+    std::size_t edges = 0;  // reserved exactly: the largest levels' peak memory is bound by it
+    for (Index h = 0; h < halfedges; ++h) edges += c.twin[h] == kNoIndex || h < c.twin[h];
+    c.edgeHalfedge.reserve(edges);
     c.boundaryEdgeCount = 0;
     for (Index h = 0; h < halfedges; ++h) {
         if (c.edgeOf[h] != kNoIndex) continue;

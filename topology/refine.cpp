@@ -97,7 +97,18 @@ void appendChildFace(Faces& cf, Connectivity& cc, Index& k, std::initializer_lis
 // point of a face f holding v at corner c: one half-edge v->F(f) and one F(f)->v, twins.
 // Recording both per corner c pairs all twins without searching. A split boundary edge adds
 // one more pair: M->F(f) and F(f)->M, twins of each other.
-Level refineLevel(const Level& parent, bool splitBoundary) {
+namespace {
+
+// refineLevel; with `consumed` (the parent itself), the parent's topology is freed as soon as
+// the child's faces and twins exist, and what the step never reads before that.
+Level refineLevelFrom(const Level& parent, bool splitBoundary, Level* consumed) {
+    if (consumed) {  // the step reads faces, faceOf, next, twin, edgeHalfedge and kind
+        Connectivity& unread = consumed->connectivity;
+        unread.outgoing = {};
+        unread.outOffsets = {};
+        unread.edgeOf = {};
+        unread.valence = {};
+    }
     const Faces& pf = parent.faces;
     const Connectivity& pc = parent.connectivity;
     const Index oldVertices = pf.vertexCount, edges = pc.edgeCount();
@@ -144,14 +155,25 @@ Level refineLevel(const Level& parent, bool splitBoundary) {
         cc.twin[toFace[c]] = fromFace[c];
         cc.twin[fromFace[c]] = toFace[c];
     }
-    completeConnectivity(cf, cc);
     // Old vertices keep their kind; a face point is always interior (its fan is the face);
     // an edge point is on the boundary.
     cc.kind.assign(pc.kind.begin(), pc.kind.end());
     cc.kind.resize(oldVertices + pf.faceCount(), VertexKind::Interior);
     cc.kind.resize(cf.vertexCount, VertexKind::Boundary);
+    if (consumed) {  // pf and pc are gone from here on
+        toFace = {};
+        fromFace = {};
+        *consumed = Level{};
+    }
+    completeConnectivity(cf, cc);
     return child;
 }
+
+}  // namespace
+
+Level refineLevel(const Level& parent, bool splitBoundary) { return refineLevelFrom(parent, splitBoundary, nullptr); }
+
+Level refineLevel(Level&& parent, bool splitBoundary) { return refineLevelFrom(parent, splitBoundary, &parent); }
 
 Hierarchy refineTopology(Faces input, Connectivity connectivity, bool preprocess, int steps,
                          const std::function<void(int, double)>& onLevel, Boundary boundary) {

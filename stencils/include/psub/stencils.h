@@ -42,6 +42,10 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
 // The tiled form (psub/tiled.h) of `perLevel`, whose level plan.baseLevel is `base` and whose
 // finest level is `finest` (their topology is only read here, never kept).
 TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan);
+// The same, freeing finest's connectivity as soon as its lattices are walked (only its faces
+// are read after that), so that the build's peak holds no finest half-edges with its output.
+TiledTable buildTiledTableFreeingConnectivity(const PerLevelTable& perLevel, const Level& base, Level& finest,
+                                              TiledPlan plan);
 TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel);
 
 // The face-varying channel's finest faces (`channel`'s) in the tiled form's drawing order:

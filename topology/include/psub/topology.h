@@ -235,6 +235,10 @@ struct Level {
 // One refined level built directly from its parent: the same faces as refineFaces and the
 // same connectivity as buildConnectivity on them, without searching for twins.
 Level refineLevel(const Level& parent, bool splitBoundary = false);
+// The same child from a parent that is not needed afterwards: the parent is left empty, and
+// freed while the child is built, so that the step's peak holds the child and only part of
+// the parent (the largest refinements are bound by this peak).
+Level refineLevel(Level&& parent, bool splitBoundary = false);
 
 // The levels of a refinement: levels[0] is the input; when `preprocessed`, levels[1] is the
 // paired-method quad mesh; every further level is one P-S step.
