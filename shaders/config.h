@@ -96,7 +96,7 @@
 //                 gathered grid, row (Y0 >> t), column (X0 >> t))
 //   gridSide      g, the tile's gathered grid side (the window's row stride)
 //   lattice       L, the tile's lattice side
-//   blockSide     M = min(L, PSUB_TILE_BLOCK), a multiple of 2^t
+//   blockSide     M: the largest multiple of 2^t dividing L, at most PSUB_TILE_BLOCK
 //   origin        X0 | Y0 << 16: the block's first lattice point in the tile
 //   outputBegin, outputEnd   the tile's drawing positions (inner points from outputBegin)
 //   borderFirst   the tile's first border entry in the TABLE_C window

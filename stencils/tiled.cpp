@@ -128,6 +128,65 @@ bool walkLattice(const Walker& w, const std::vector<Index>& grid, std::uint32_t 
     return true;
 }
 
+// The greedy cover of level B by blocks: for each side in turn, over faces in order, each
+// side x side block whose grid walks (walkBlock) and whose faces no earlier block has, if
+// accept(side, grid, cells) takes it (its faces are then covered).
+template <class Accept>
+void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo, Accept&& accept) {
+    std::vector<std::uint8_t> covered(w.faces.faceCount(), 0);
+    std::vector<Index> grid, cells;
+    for (std::uint32_t side : sides)
+        for (Index f = 0; f < w.faces.faceCount(); ++f) {
+            if (covered[f] || !walkBlock(w, f, side, halo, grid, cells)) continue;
+            if (std::any_of(cells.begin(), cells.end(), [&](Index c) { return covered[c] != 0; })) continue;
+            if (!accept(side, grid, cells)) continue;
+            for (Index c : cells) covered[c] = 1;
+        }
+}
+
+// The cost model of chooseSides, in values the CPU tile kernel computes (per vertex value).
+// A tile: each double step a quincunx pass over an n x n grid's (n - 2)^2 + (n - 1)^2 points
+// and a fine pass over the (2n - 9)^2 grid, the last one only over the (L + 1)^2 lattice, plus
+// a fixed cost per tile; a finest point no tile has (the per-level rows of every level): a
+// few values. Both constants measured on the 2-core EPYC VM of bench/README.md ("Session 9").
+constexpr double kTileFixedCost = 750, kFallbackPointCost = 6;
+
+double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
+    double values = kTileFixedCost, n = side + 2.0 * halo + 1;
+    for (std::uint32_t s = 0; s < t; ++s) {
+        const double fine = s + 1 == t ? double(side << t) + 1 : 2 * n - 9;
+        values += (n - 2) * (n - 2) + (n - 1) * (n - 1) + fine * fine;
+        n = 2 * n - 9;
+    }
+    return values;
+}
+
+// The sides of the greedy cover: {S, S / 2, S / 4, 1}, S from the largest (64 / 2^t) down to
+// half of it, the one whose cover costs least (tileCost, and the fallback's points). A
+// regular region whose side is no multiple of the largest would otherwise get strips of
+// small tiles (a 36 x 36 torus at t = 2: 4 tiles of 16 and 17 of 4, against 9 of 12).
+std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::uint32_t halo) {
+    const std::uint32_t largest = TiledTable::kMaxLattice >> t;
+    const double finestPerFace = std::ldexp(1.0, 2 * int(t));
+    std::vector<std::uint32_t> best;
+    double bestCost = 0;
+    for (std::uint32_t first = largest; first >= std::max<std::uint32_t>(1, largest / 2); --first) {
+        std::vector<std::uint32_t> sides{first};
+        for (std::uint32_t s : {first / 2, first / 4, 1u})
+            if (s >= 1 && s < sides.back()) sides.push_back(s);
+        double cost = 0, covered = 0;
+        coverBlocks(w, sides, halo, [&](std::uint32_t side, const std::vector<Index>&, const std::vector<Index>&) {
+            cost += tileCost(side, t, halo);
+            covered += double(side) * side;
+            return true;
+        });
+        cost += (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
+        if (best.empty() || cost < bestCost) best = sides, bestCost = cost;
+        if (first == 1) break;
+    }
+    return best;
+}
+
 // Level k of `in` appended to `out`: every row, or only those whose destination is `needed`,
 // with destinations renumbered through `renumber` when given.
 void appendRows(PerLevelTable& out, const PerLevelTable& in, std::size_t k, const std::vector<std::uint8_t>* needed,
@@ -190,45 +249,37 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
     table.halo = kHalo[plan.doubleSteps];
     const std::uint32_t steps = 1u << plan.doubleSteps;
 
-    // Tiles: greedy, largest blocks first, then smaller ones where those do not fit.
+    // Tiles: the greedy cover with the sides chooseSides picks.
     std::vector<std::uint32_t> drawOf(table.refinedCount, kNone);
     std::uint32_t next = 0;
     if (plan.doubleSteps > 0) {
         const Walker wb{base.faces, base.connectivity}, wf{finest.faces, finest.connectivity};
-        std::vector<std::uint8_t> covered(base.faces.faceCount(), 0);
-        std::vector<Index> grid, cells, points;
-        const std::uint32_t largest = TiledTable::kMaxLattice >> plan.doubleSteps;
-        std::vector<std::uint32_t> sides{largest};
-        if (largest / 4 > 1) sides.push_back(largest / 4);
-        if (largest > 1) sides.push_back(1);
-        for (std::uint32_t side : sides) {
+        std::vector<Index> points;
+        const std::vector<std::uint32_t> sides = chooseSides(wb, plan.doubleSteps, table.halo);
+        coverBlocks(wb, sides, table.halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>&) {
             const std::uint32_t g = side + 2 * table.halo + 1, lattice = side * steps;
-            for (Index f = 0; f < base.faces.faceCount(); ++f) {
-                if (covered[f] || !walkBlock(wb, f, side, table.halo, grid, cells)) continue;
-                if (std::any_of(cells.begin(), cells.end(), [&](Index c) { return covered[c] != 0; })) continue;
-                if (!walkLattice(wf, grid, g, table.halo, steps, lattice, points)) continue;
-                for (Index c : cells) covered[c] = 1;
-                table.side.push_back(side);
-                table.gather.insert(table.gather.end(), grid.begin(), grid.end());
-                table.gatherBegin.push_back(table.gather.size());
-                table.output.push_back(next);
-                const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
-                    return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
-                };
-                for (std::uint32_t y = 1; y < lattice; ++y)
-                    for (std::uint32_t x = 1; x < lattice; ++x) {
-                        if (at(x, y) != kNone) throw std::logic_error("buildTiledTable: a tile's inner point is shared");
-                        at(x, y) = next++;
-                    }
-                const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
-                    if (at(x, y) == kNone) at(x, y) = next++;
-                    table.border.push_back(at(x, y));
-                };
-                for (std::uint32_t y = 0; y <= lattice; ++y)
-                    for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
-                table.borderBegin.push_back(table.border.size());
-            }
-        }
+            if (!walkLattice(wf, grid, g, table.halo, steps, lattice, points)) return false;
+            table.side.push_back(side);
+            table.gather.insert(table.gather.end(), grid.begin(), grid.end());
+            table.gatherBegin.push_back(table.gather.size());
+            table.output.push_back(next);
+            const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
+                return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
+            };
+            for (std::uint32_t y = 1; y < lattice; ++y)
+                for (std::uint32_t x = 1; x < lattice; ++x) {
+                    if (at(x, y) != kNone) throw std::logic_error("buildTiledTable: a tile's inner point is shared");
+                    at(x, y) = next++;
+                }
+            const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
+                if (at(x, y) == kNone) at(x, y) = next++;
+                table.border.push_back(at(x, y));
+            };
+            for (std::uint32_t y = 0; y <= lattice; ++y)
+                for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
+            table.borderBegin.push_back(table.border.size());
+            return true;
+        });
     }
     table.side.shrink_to_fit();
     if (release) *release = Connectivity{};

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <set>
 
 namespace psub {
 namespace {
@@ -117,6 +118,24 @@ TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
         const std::vector<double> oracle = refinePositions(h, torus.mesh.positions);
         EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), oracle), 1e-6 * scale);
         EXPECT_LE(maxDifference(tiledCanonical<double>(table, torus.mesh.positions), oracle), 1e-12 * scale);
+    }
+}
+
+// A regular region whose side is no multiple of the largest tile side (16 at t = 2) gets the
+// tiles its cost model prefers: a 36 x 36 torus 9 of side 12 (not 4 of 16 and 17 strips of
+// 4), a 20 x 20 one 4 of side 10; every finest point still a tile's, the rules'.
+TEST(Tiled, TileSidesFollowTheRegularRegion) {
+    for (const auto& [n, side] : {std::pair<Index, std::uint32_t>{36, 12}, {20, 10}}) {
+        SCOPED_TRACE(n);
+        const test::Loaded torus = loadTorus(n, n);
+        const Hierarchy h = test::refine(torus, 4);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        ASSERT_EQ(table.doubleSteps, 2u);
+        EXPECT_EQ(table.fallbackBegin, table.refinedCount);
+        EXPECT_EQ(table.tileCount(), std::size_t(n / side) * (n / side));
+        EXPECT_EQ(std::set<std::uint32_t>(table.side.begin(), table.side.end()), std::set<std::uint32_t>{side});
+        EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), refinePositions(h, torus.mesh.positions)),
+                  1e-6 * diagonal(torus.mesh.positions));
     }
 }
 

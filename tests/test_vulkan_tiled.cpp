@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -109,6 +110,17 @@ TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
             compareWithCpu(context(), t, width, width == 3 || width == 4 || steps % 2 == 0 ? 0.0 : 1e-6);
     }
     EXPECT_EQ(doubleSteps, 3u);
+}
+
+// Tile sides that are no power of two, at t = 2: lattices of 48 (three blocks of 16 a side)
+// and 40 (five blocks of 8).
+TEST_F(VulkanTiled, TilesOfAnySideAreTheCpusBits) {
+    for (const auto& [n, side] : {std::pair<Index, std::uint32_t>{36, 12}, {20, 10}}) {
+        SCOPED_TRACE(n);
+        const Tiled t = tiledFor(test::loadTorus(n, n), 4);
+        ASSERT_EQ(std::set<std::uint32_t>(t.r.tiled.side.begin(), t.r.tiled.side.end()), std::set<std::uint32_t>{side});
+        for (std::uint32_t width : {3u, 4u}) compareWithCpu(context(), t, width, 0.0);
+    }
 }
 
 TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) {

@@ -192,8 +192,16 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, Uploader& upload
     if (t == 0 || t > 3 || largest > PSUB_TILE_GRID)
         throw std::invalid_argument("VulkanEvaluator: the tiled table's " + std::to_string(t) + " double steps and halo " +
                                     std::to_string(halo) + " need grids beyond the tile kernel's");
+    // A tile of side L is cut into (L / M)^2 blocks, M the largest multiple of 2^t dividing L
+    // and at most PSUB_TILE_BLOCK (whole level-B cells, so a block's window is a part of the
+    // tile's gathered grid).
+    const auto blockSide = [&](std::uint32_t L) {
+        std::uint32_t M = std::min<std::uint32_t>(L, PSUB_TILE_BLOCK) >> t << t;
+        while (L % M != 0) M -= 1u << t;
+        return M;
+    };
     const auto blocksOf = [&](std::size_t k) {
-        const std::uint64_t L = table.lattice(k), M = std::min<std::uint64_t>(L, PSUB_TILE_BLOCK);
+        const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k));
         return (L / M) * (L / M);
     };
     std::vector<std::uint64_t> blockBegin{0};  // per tile: its first block
@@ -220,7 +228,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, Uploader& upload
                 const std::uint64_t gatherFirst = firstElement(table.gatherBegin[a], 4);
                 const std::uint64_t borderFirst = firstElement(table.borderBegin[a], 4);
                 for (std::size_t k = a; k < b; ++k) {
-                    const std::uint32_t L = table.lattice(k), M = std::min<std::uint32_t>(L, PSUB_TILE_BLOCK), g = table.gridSize(k);
+                    const std::uint32_t L = table.lattice(k), M = blockSide(L), g = table.gridSize(k);
                     const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
                     for (std::uint32_t Y0 = 0; Y0 < L; Y0 += M)
                         for (std::uint32_t X0 = 0; X0 < L; X0 += M)
