@@ -35,9 +35,9 @@ struct Walker {
 
 // The g x g level-B vertices (row by row, x along face f's first edge, y along its last,
 // face f's first corner at (halo, halo)) and the side x side faces of the block, when every
-// one of those vertices is regular and distinct.
-bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo, std::vector<Index>& grid,
-               std::vector<Index>& cells) {
+// one of those vertices is regular and distinct and no face of the block is `covered`.
+bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo, const std::vector<std::uint8_t>& covered,
+               std::vector<Index>& grid, std::vector<Index>& cells) {
     if (w.faces.faceSize(f) != 4) return false;
     const std::uint32_t g = side + 2 * halo + 1;
     Index v = w.faces.verts[w.faces.offsets[f]], hx = w.faces.offsets[f];
@@ -61,7 +61,10 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
         Index u = v, ux = hx;
         for (std::uint32_t x = 0; x < g; ++x) {
             grid[std::size_t(y) * g + x] = u;
-            if (x >= halo && x < halo + side && y >= halo && y < halo + side) cells.push_back(w.c.faceOf[ux]);
+            if (x >= halo && x < halo + side && y >= halo && y < halo + side) {
+                cells.push_back(w.c.faceOf[ux]);
+                if (covered[cells.back()]) return false;
+            }
             if (x + 1 == g) break;
             u = w.head(ux);
             if (!w.regular(u)) return false;
@@ -137,8 +140,7 @@ void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::
     std::vector<Index> grid, cells;
     for (std::uint32_t side : sides)
         for (Index f = 0; f < w.faces.faceCount(); ++f) {
-            if (covered[f] || !walkBlock(w, f, side, halo, grid, cells)) continue;
-            if (std::any_of(cells.begin(), cells.end(), [&](Index c) { return covered[c] != 0; })) continue;
+            if (covered[f] || !walkBlock(w, f, side, halo, covered, grid, cells)) continue;
             if (!accept(side, grid, cells)) continue;
             for (Index c : cells) covered[c] = 1;
         }
@@ -161,19 +163,22 @@ double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
     return values;
 }
 
-// The sides of the greedy cover: {S, S / 2, S / 4, 1}, S from the largest (64 / 2^t) down to
-// half of it, the one whose cover costs least (tileCost, and the fallback's points). A
-// regular region whose side is no multiple of the largest would otherwise get strips of
-// small tiles (a 36 x 36 torus at t = 2: 4 tiles of 16 and 17 of 4, against 9 of 12).
+// The sides of the greedy cover: S, S / 2, S / 4, ... 1, S among the largest (kMaxLattice /
+// 2^t) and 3/4, 1/2 and 3/8 of it, the one whose cover costs least (tileCost, and the
+// fallback's points). A regular region whose side is no multiple of the largest would
+// otherwise get strips of small tiles (a 36 x 36 torus at t = 2: 24 and 12 instead of 32, 16
+// and 4).
 std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::uint32_t halo) {
     const std::uint32_t largest = TiledTable::kMaxLattice >> t;
     const double finestPerFace = std::ldexp(1.0, 2 * int(t));
     std::vector<std::uint32_t> best;
     double bestCost = 0;
-    for (std::uint32_t first = largest; first >= std::max<std::uint32_t>(1, largest / 2); --first) {
+    std::uint32_t tried = 0;
+    for (std::uint32_t first : {largest, largest * 3 / 4, largest / 2, largest * 3 / 8}) {
+        if (first == 0 || first == tried) continue;
+        tried = first;
         std::vector<std::uint32_t> sides{first};
-        for (std::uint32_t s : {first / 2, first / 4, 1u})
-            if (s >= 1 && s < sides.back()) sides.push_back(s);
+        while (sides.back() > 1) sides.push_back(sides.back() / 2);
         double cost = 0, covered = 0;
         coverBlocks(w, sides, halo, [&](std::uint32_t side, const std::vector<Index>&, const std::vector<Index>&) {
             cost += tileCost(side, t, halo);
@@ -182,7 +187,6 @@ std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::ui
         });
         cost += (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
         if (best.empty() || cost < bestCost) best = sides, bestCost = cost;
-        if (first == 1) break;
     }
     return best;
 }

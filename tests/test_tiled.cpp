@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <set>
+#include <tuple>
 
 namespace psub {
 namespace {
@@ -121,19 +122,21 @@ TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
     }
 }
 
-// A regular region whose side is no multiple of the largest tile side (16 at t = 2) gets the
-// tiles its cost model prefers: a 36 x 36 torus 9 of side 12 (not 4 of 16 and 17 strips of
-// 4), a 20 x 20 one 4 of side 10; every finest point still a tile's, the rules'.
+// A regular region whose side is no multiple of the largest tile side (32 at t = 2) gets the
+// tiles its cost model prefers: a 36 x 36 torus one of side 24 and five of 12 (not one of 32
+// and strips of 4), a 30 x 30 one four of 12 and nine of 6; every finest point still a
+// tile's, the rules'.
 TEST(Tiled, TileSidesFollowTheRegularRegion) {
-    for (const auto& [n, side] : {std::pair<Index, std::uint32_t>{36, 12}, {20, 10}}) {
+    const std::set<std::uint32_t> sides36{24, 12}, sides30{12, 6};
+    for (const auto& [n, sides, tiles] : {std::tuple{36u, sides36, 6u}, std::tuple{30u, sides30, 13u}}) {
         SCOPED_TRACE(n);
         const test::Loaded torus = loadTorus(n, n);
         const Hierarchy h = test::refine(torus, 4);
         const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
         ASSERT_EQ(table.doubleSteps, 2u);
         EXPECT_EQ(table.fallbackBegin, table.refinedCount);
-        EXPECT_EQ(table.tileCount(), std::size_t(n / side) * (n / side));
-        EXPECT_EQ(std::set<std::uint32_t>(table.side.begin(), table.side.end()), std::set<std::uint32_t>{side});
+        EXPECT_EQ(table.tileCount(), tiles);
+        EXPECT_EQ(std::set<std::uint32_t>(table.side.begin(), table.side.end()), sides);
         EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), refinePositions(h, torus.mesh.positions)),
                   1e-6 * diagonal(torus.mesh.positions));
     }

@@ -18,7 +18,7 @@ namespace psub {
 // fallback's points in canonical order. `canonical[p]` is the canonical (SPEC) index of
 // drawing position p; `surface` is the finest faces over drawing positions.
 struct TiledTable {
-    static constexpr std::uint32_t kMaxLattice = 64;  // side << doubleSteps never exceeds it
+    static constexpr std::uint32_t kMaxLattice = 128;  // side << doubleSteps never exceeds it
     std::uint32_t controlCount = 0, refinedCount = 0;
     std::uint32_t baseLevel = 0;    // B: rows.levels[0, B) are the full per-level rows
     std::uint32_t doubleSteps = 0;  // t: a tile runs 2t P-S steps from level B
