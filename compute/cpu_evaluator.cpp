@@ -218,7 +218,9 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
 #pragma omp barrier
         }
         T* scratch = tileScratch_.data() + std::size_t(omp_get_thread_num()) * scratchSize;
-#pragma omp for schedule(dynamic, 8)
+        // One tile at a time: tiles are large (lattices up to 128 a side) and few on small
+        // meshes, largest first, so chunks of several left one thread most of the work.
+#pragma omp for schedule(dynamic, 1)
         for (std::size_t k = 0; k < tiled.tileCount(); ++k)
             evaluateTile(tiled, k, base, width_, refined.data(),
                          TileNormals<T>{normals, faceNormals_.data(), ringFaces_.data() + (normals ? ringBegin_[k] : 0)},

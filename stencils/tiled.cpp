@@ -163,22 +163,28 @@ double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
     return values;
 }
 
-// The sides of the greedy cover: S, S / 2, S / 4, ... 1, S among the largest (kMaxLattice /
-// 2^t) and 3/4, 1/2 and 3/8 of it, the one whose cover costs least (tileCost, and the
-// fallback's points). A regular region whose side is no multiple of the largest would
-// otherwise get strips of small tiles (a 36 x 36 torus at t = 2: 24 and 12 instead of 32, 16
-// and 4).
+// The sides of the greedy cover: S, S / 2, S / 4, ... while a tile of that side costs less
+// than its points' rows, S among the largest (kMaxLattice / 2^t) and 3/4, 1/2 and 3/8 of it,
+// the one whose cover costs least (tileCost, and the fallback's points); none when no side is
+// worth a tile. A regular region whose side is no multiple of the largest would otherwise get
+// strips of small tiles (a 36 x 36 torus at t = 2: 24 and 12 instead of 32, 16 and 4), and
+// small regular regions tiles dearer than their rows (Spot at 9 steps: 4,089 tiles, most of a
+// few faces, made the frame twice as slow as the per-level rows).
 std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::uint32_t halo) {
     const std::uint32_t largest = TiledTable::kMaxLattice >> t;
     const double finestPerFace = std::ldexp(1.0, 2 * int(t));
     std::vector<std::uint32_t> best;
     double bestCost = 0;
+    // A side is worth a tile only where the tile costs less than the rows of its points.
+    const auto worthwhile = [&](std::uint32_t side) {
+        return side > 0 && tileCost(side, t, halo) < double(side) * side * finestPerFace * kFallbackPointCost;
+    };
     std::uint32_t tried = 0;
     for (std::uint32_t first : {largest, largest * 3 / 4, largest / 2, largest * 3 / 8}) {
-        if (first == 0 || first == tried) continue;
+        if (!worthwhile(first) || first == tried) continue;
         tried = first;
         std::vector<std::uint32_t> sides{first};
-        while (sides.back() > 1) sides.push_back(sides.back() / 2);
+        for (std::uint32_t side = first / 2; worthwhile(side); side /= 2) sides.push_back(side);
         double cost = 0, covered = 0;
         coverBlocks(w, sides, halo, [&](std::uint32_t side, const std::vector<Index>&, const std::vector<Index>&) {
             cost += tileCost(side, t, halo);

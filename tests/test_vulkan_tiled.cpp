@@ -125,8 +125,9 @@ TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) 
     // allows). At one value per vertex the gathered grids (over 4/3 bytes per point here: the
     // tiles' halos; asserted below) then exceed one binding, so the tiles are split into
     // dispatches; at width 3 the vertex buffers are split into windows instead.
-    const Tiled t = tiledFor(test::loadTorus(40, 24), 2);
+    const Tiled t = tiledFor(test::loadTorus(24, 16), 2);  // six tiles of 8 x 8 faces, no fallback
     ASSERT_GT(t.r.tiled.tileCount(), 0u);
+    ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
     for (std::uint32_t width : {1u, 3u})
         for (Staging staging : {Staging::Auto, Staging::Always}) {
             SCOPED_TRACE(width);
