@@ -385,7 +385,10 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     TiledPlan plan{0, 0};
     Level base;
     const auto planTiles = [&](int k) {
-        if (options.tiled && k == firstQuadLevel) plan = planTiled(std::size_t(steps), out.preprocessed, parent);
+        if (options.tiled && k == firstQuadLevel) {
+            plan = planTiled(std::size_t(steps), out.preprocessed, parent);
+            plan.sides = options.tileSides;
+        }
         if (options.tiled && k == int(plan.baseLevel)) base = parent;
     };
     planTiles(0);

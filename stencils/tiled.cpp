@@ -265,7 +265,11 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
     if (plan.doubleSteps > 0) {
         const Walker wb{base.faces, base.connectivity}, wf{finest.faces, finest.connectivity};
         std::vector<Index> points;
-        const std::vector<std::uint32_t> sides = chooseSides(wb, plan.doubleSteps, table.halo);
+        std::vector<std::uint32_t> sides;
+        if (plan.sides == TileSides::Every)
+            for (std::uint32_t side = TiledTable::kMaxLattice >> plan.doubleSteps; side > 0; side /= 2) sides.push_back(side);
+        else
+            sides = chooseSides(wb, plan.doubleSteps, table.halo);
         coverBlocks(wb, sides, table.halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>&) {
             const std::uint32_t g = side + 2 * table.halo + 1, lattice = side * steps;
             if (!walkLattice(wf, grid, g, table.halo, steps, lattice, points)) return false;
@@ -399,9 +403,10 @@ void setTiledFaceVaryingFaces(TiledTable& tiled, const FaceVaryingTable& channel
     }
 }
 
-TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel) {
-    const TiledPlan plan = planTiled(hierarchy.levels.size() - 1, hierarchy.preprocessed,
-                                     hierarchy.levels[hierarchy.preprocessed && hierarchy.levels.size() > 1 ? 1 : 0]);
+TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel, TileSides sides) {
+    TiledPlan plan = planTiled(hierarchy.levels.size() - 1, hierarchy.preprocessed,
+                               hierarchy.levels[hierarchy.preprocessed && hierarchy.levels.size() > 1 ? 1 : 0]);
+    plan.sides = sides;
     return buildTiledTable(perLevel, hierarchy.levels[plan.baseLevel], hierarchy.finest(), plan);
 }
 

@@ -1,8 +1,8 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
-// levels (either boundary mode), turned into all three table forms and evaluated (the tiled one
-// also with its normals in the tile pass); the counts must match the closed form and the table
-// forms must agree (the tiled one once put back in canonical order); within the numeric-range
-// policy the values are finite.
+// levels (either boundary mode), turned into all three table forms and evaluated (the tiled
+// one, a tile on every regular block, also with its normals in the tile pass); the counts must
+// match the closed form and the table forms must agree (the tiled one once put back in
+// canonical order); within the numeric-range policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -20,6 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const psub::CheckedMesh checked = psub::checkMesh(mesh);
         psub::RefineOptions options{2, psub::Preprocess::Auto, true, {}};
         options.tiled = true;
+        options.tileSides = psub::TileSides::Every;  // small inputs: tiles wherever a block is regular
         options.boundary = size % 2 ? psub::Boundary::Smooth : psub::Boundary::Paper;  // both, by input length
         const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
         const psub::Counts expected = psub::countsAfterSteps(psub::countMesh(mesh.faces, checked.connectivity),

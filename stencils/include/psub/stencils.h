@@ -30,8 +30,15 @@ SurfaceTable buildSurfaceTable(Faces finest);
 // Where the tiled form starts its tiles: levels [0, baseLevel) of the per-level table are
 // evaluated whole, then each tile runs 2 * doubleSteps steps (0 when there are too few quad
 // levels: everything is then the fallback).
+// Which regular blocks of level B become tiles: Cheapest, those a cost model finds cheaper
+// than their points' rows, with sides fitted to the regular regions (docs/tiled.md); Every,
+// every regular block, sides halving from the largest down to single faces whatever a tile
+// costs (for tests and fuzzing: many small tiles, many tile borders beside the fallback).
+enum class TileSides { Cheapest, Every };
+
 struct TiledPlan {
     std::uint32_t baseLevel, doubleSteps;
+    TileSides sides = TileSides::Cheapest;
 };
 
 // For a per-level table of `levelCount` levels: as many double steps as fit after the paired
@@ -46,7 +53,8 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
 // are read after that), so that the build's peak holds no finest half-edges with its output.
 TiledTable buildTiledTableFreeingConnectivity(const PerLevelTable& perLevel, const Level& base, Level& finest,
                                               TiledPlan plan);
-TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel);
+TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel,
+                           TileSides sides = TileSides::Cheapest);
 
 // The face-varying channel's finest faces (`channel`'s) in the tiled form's drawing order:
 // `tiled`'s uvFaceOffsets, uvFaceVerts and uvFaceValues (psub/tiled.h). Each corner's surface
@@ -85,6 +93,7 @@ struct RefineOptions {
     Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
     Boundary boundary = Boundary::Paper;    // Smooth: beyond the paper (psub/topology.h)
     bool tiled = false;                     // also build the tiled form (psub/tiled.h)
+    TileSides tileSides = TileSides::Cheapest;  // its tiles
     UvLinear uvLinear = UvLinear::Boundaries;  // the face-varying channel, when the mesh has one
 };
 
