@@ -1,6 +1,7 @@
 // Builds the tiled table form (psub/tiled.h): finds regular blocks of level-B faces by walking
-// half-edges, maps their finest lattices to canonical indices by walking the finest level,
-// assigns drawing positions, and keeps the per-level rows the fallback points need.
+// half-edges (their sides chosen by a cost model), maps their finest lattices to canonical
+// indices by walking the finest level, assigns drawing positions, and keeps the per-level rows
+// the fallback points need.
 #include "psub/stencils.h"
 #include "psub/tiled.h"
 

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -132,9 +133,9 @@ TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
 }
 
 // A regular region whose side is no multiple of the largest tile side (32 at t = 2) gets the
-// tiles its cost model prefers: a 36 x 36 torus one of side 24 and five of 12 (not one of 32
-// and strips of 4), a 30 x 30 one four of 12 and nine of 6; every finest point still a
-// tile's, the rules'.
+// tiles its cost model prefers: a 36 x 36 torus one of side 24 and five of 12 (the largest
+// sides' cover would leave strips of 4), a 30 x 30 one four of 12 and nine of 6; every finest
+// point still a tile's, the rules'.
 TEST(Tiled, TileSidesFollowTheRegularRegion) {
     const std::set<std::uint32_t> sides36{24, 12}, sides30{12, 6};
     for (const auto& [n, sides, tiles] : {std::tuple{36u, sides36, 6u}, std::tuple{30u, sides30, 13u}}) {
@@ -149,6 +150,23 @@ TEST(Tiled, TileSidesFollowTheRegularRegion) {
         EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), refinePositions(h, torus.mesh.positions)),
                   1e-6 * diagonal(torus.mesh.positions));
     }
+}
+
+// Small regular regions stay with the rows: on Spot at 9 steps (t = 1) the cost model keeps
+// only tiles of at least 8 faces a side (smaller ones cost more than their points' rows),
+// where every regular block would make thousands of tiles.
+TEST(Tiled, SmallRegularRegionsStayWithTheRows) {
+    const test::Loaded spot = test::load(test::dataPath("spot_control_mesh.obj"));
+    const Hierarchy h = test::refine(spot, 9);
+    const PerLevelTable perLevel = buildPerLevelTable(h);
+    const TiledTable cheapest = buildTiledTable(h, perLevel), every = buildTiledTable(h, perLevel, TileSides::Every);
+    ASSERT_EQ(cheapest.doubleSteps, 1u);
+    EXPECT_GT(cheapest.tileCount(), 0u);
+    EXPECT_GT(every.tileCount(), 20 * cheapest.tileCount());
+    EXPECT_GE(*std::min_element(cheapest.side.begin(), cheapest.side.end()), 8u);
+    EXPECT_EQ(*std::min_element(every.side.begin(), every.side.end()), 1u);
+    EXPECT_LE(maxDifference(tiledCanonical<float>(cheapest, spot.mesh.positions), refinePositions(h, spot.mesh.positions)),
+              1e-6 * diagonal(spot.mesh.positions));
 }
 
 // Every finest point is written exactly once: `canonical` is a permutation.

@@ -27,15 +27,15 @@ FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel);
 
 SurfaceTable buildSurfaceTable(Faces finest);
 
-// Where the tiled form starts its tiles: levels [0, baseLevel) of the per-level table are
-// evaluated whole, then each tile runs 2 * doubleSteps steps (0 when there are too few quad
-// levels: everything is then the fallback).
 // Which regular blocks of level B become tiles: Cheapest, those a cost model finds cheaper
 // than their points' rows, with sides fitted to the regular regions (docs/tiled.md); Every,
 // every regular block, sides halving from the largest down to single faces whatever a tile
 // costs (for tests and fuzzing: many small tiles, many tile borders beside the fallback).
 enum class TileSides { Cheapest, Every };
 
+// Where the tiled form starts its tiles: levels [0, baseLevel) of the per-level table are
+// evaluated whole, then each tile runs 2 * doubleSteps steps (0 when there are too few quad
+// levels: everything is then the fallback).
 struct TiledPlan {
     std::uint32_t baseLevel, doubleSteps;
     TileSides sides = TileSides::Cheapest;
