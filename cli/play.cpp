@@ -316,11 +316,12 @@ double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& co
     return ms[ms.size() / 2];
 }
 
-// The table form: the forced one; or (auto) on Vulkan the per-level rows (the tile kernel is
-// slower on lavapipe, bench/README.md), on the CPU the tiled form when it has tiles and a quick
-// timing of both on the rest pose finds it faster than the per-level rows (on meshes whose
-// finest points come mostly from the fallback it is slower; docs/tiled.md). Textured or not:
-// the tiled form draws the texture with its own faces (TiledTable::uvFace...).
+// The table form: the forced one; or (auto) on Vulkan the per-level rows (no timing at load
+// there: the tile kernels compile for seconds on lavapipe on first use, and the workgroup
+// kernel is unmeasured on GPUs; docs/tiled.md), on the CPU the tiled form when it has tiles
+// and a quick timing of both on the rest pose finds it faster than the per-level rows (on
+// meshes whose finest points come mostly from the fallback it is slower; docs/tiled.md).
+// Textured or not: the tiled form draws the texture with its own faces (TiledTable::uvFace...).
 void chooseForm(Playback& p) {
     const Refinement& r = p.refinement;
     if (p.o.form != kFormAuto) {

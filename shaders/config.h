@@ -45,6 +45,7 @@
 #define PSUB_SPEC_TEXELS 5             // inputs and tables are read through the texel-buffer bindings
 #define PSUB_SPEC_ROW_N 6              // level kernel: the rows' edge count when compiled in (0xffffffff: any)
 #define PSUB_SPEC_ROW_M 7              // level kernel: the rows' diagonal count likewise
+#define PSUB_SPEC_TILE_STEPS 8         // tile_unrolled.comp: t, the double steps it unrolls
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once
@@ -87,16 +88,19 @@
     float diagonal;                                                                            \
     uint pad;
 
-// The tile kernel (tile.comp): one workgroup computes a block of at most PSUB_TILE_BLOCK x
+// The tile kernels: tile.comp, one workgroup computes a block of at most PSUB_TILE_BLOCK x
 // PSUB_TILE_BLOCK lattice intervals of one tile, in workgroup-shared grids of at most
 // PSUB_TILE_GRID x PSUB_TILE_GRID points (the largest grid any of its steps keeps, t <= 3:
-// 12.3 KiB of vec4 with the quincunx level's two grids, under the 16 KiB every device has).
+// 12.3 KiB of vec4 with the quincunx level's two grids, under the 16 KiB every device has);
+// tile_unrolled.comp, one invocation computes a block of exactly PSUB_TILE_BLOCK, its grids
+// unrolled into registers (the last block of a row or column cut by the tile's side).
 // A block record (std430, 32 bytes, read as two uvec4):
 //   gatherFirst   the block's level-B window's first vertex in the TABLE_B window (the tile's
 //                 gathered grid, row (Y0 >> t), column (X0 >> t))
 //   gridSide      g, the tile's gathered grid side (the window's row stride)
 //   lattice       L, the tile's lattice side
-//   blockSide     M: the largest multiple of 2^t dividing L, at most PSUB_TILE_BLOCK
+//   blockSide     M: the largest multiple of 2^t dividing L, at most PSUB_TILE_BLOCK (unrolled:
+//                 PSUB_TILE_BLOCK)
 //   origin        X0 | Y0 << 16: the block's first lattice point in the tile
 //   outputBegin, outputEnd   the tile's drawing positions (inner points from outputBegin)
 //   borderFirst   the tile's first border entry in the TABLE_C window

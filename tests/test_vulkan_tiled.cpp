@@ -1,9 +1,9 @@
-// The tiled form on Vulkan (shaders/tile.comp and the tiled table's per-level rows) against
-// the CPU tiled evaluator, both in the tiled drawing order: every model with both boundary
-// modes and two rule sets, a torus at every double-step count and several widths (bit for bit
-// where the arithmetic is the CPU's), split dispatches under small bindings, staging, the
-// storage-buffer reads, the refusals. Validation layer on; no device fails unless
-// PSUB_ALLOW_NO_VULKAN=1.
+// The tiled form on Vulkan (both tile kernels, shaders/tile.comp and tile_unrolled.comp, and the
+// tiled table's per-level rows) against the CPU tiled evaluator, both in the tiled drawing
+// order: every model with both boundary modes and two rule sets, a torus at every double-step
+// count and several widths (bit for bit where the arithmetic is the CPU's), tiles cut into
+// partial blocks, split dispatches under small bindings, staging, the storage-buffer reads, the
+// refusals. Validation layer on; no device fails unless PSUB_ALLOW_NO_VULKAN=1.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 #include "vulkan_test_support.h"
@@ -20,6 +20,18 @@ namespace psub {
 namespace {
 
 using VulkanTiled = test::ValidatedVulkanTest;
+
+// Both tile kernels, whichever the device would pick (lavapipe: the unrolled one).
+constexpr TileKernel kTileKernels[] = {TileKernel::Workgroup, TileKernel::Unrolled};
+
+VulkanEvaluatorOptions withKernel(TileKernel kernel, VulkanEvaluatorOptions options = {}) {
+    options.tileKernel = kernel;
+    return options;
+}
+
+std::string kernelName(TileKernel kernel) {
+    return kernel == TileKernel::Workgroup ? "workgroup kernel" : "unrolled kernel";
+}
 
 struct Tiled {
     test::Loaded loaded;
@@ -111,18 +123,27 @@ TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
         ASSERT_GT(t.r.tiled.tileCount(), 0u);
         ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
         doubleSteps = std::max(doubleSteps, t.r.tiled.doubleSteps);
-        for (std::uint32_t width : {1u, 3u, 4u, 7u})
-            compareWithCpu(context(), t, width, width == 3 || width == 4 || steps % 2 == 0 ? 0.0 : 1e-6);
+        for (TileKernel kernel : kTileKernels)
+            for (std::uint32_t width : {1u, 3u, 4u, 7u}) {
+                SCOPED_TRACE(kernelName(kernel));
+                compareWithCpu(context(), t, width, width == 3 || width == 4 || steps % 2 == 0 ? 0.0 : 1e-6,
+                               withKernel(kernel));
+            }
     }
     EXPECT_EQ(doubleSteps, 3u);
 }
 
 // Tile sides that are no power of two, at t = 2 on a 30 x 30 torus: lattices of 48 (three
-// blocks of 16 a side) and 24 (two blocks of 12).
+// blocks of 16 a side) and 24 (the workgroup kernel: two blocks of 12; the unrolled one: a
+// block of 16 and one cut to 8, its window clamped to the tile's grid).
 TEST_F(VulkanTiled, TilesOfAnySideAreTheCpusBits) {
     const Tiled t = tiledFor(test::loadTorus(30, 30), 4);
     ASSERT_EQ(std::set<std::uint32_t>(t.r.tiled.side.begin(), t.r.tiled.side.end()), (std::set<std::uint32_t>{6, 12}));
-    for (std::uint32_t width : {3u, 4u}) compareWithCpu(context(), t, width, 0.0);
+    for (TileKernel kernel : kTileKernels)
+        for (std::uint32_t width : {3u, 4u}) {
+            SCOPED_TRACE(kernelName(kernel));
+            compareWithCpu(context(), t, width, 0.0, withKernel(kernel));
+        }
 }
 
 TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) {
@@ -138,7 +159,10 @@ TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) 
             SCOPED_TRACE(width);
             const std::uint64_t stride = width == 3 ? 4 : width;
             const VulkanEvaluatorOptions small{staging, std::uint64_t(t.r.tiled.refinedCount) * stride * 4 / 3 + 1024};
-            compareWithCpu(context(), t, width, 0.0, small);
+            for (TileKernel kernel : kTileKernels) {
+                SCOPED_TRACE(kernelName(kernel));
+                compareWithCpu(context(), t, width, 0.0, withKernel(kernel, small));
+            }
             VulkanEvaluator whole(context(), t.r.tiled, width), split(context(), t.r.tiled, width, small);
             EXPECT_EQ(whole.dispatchCount(), 1u);
             if (width == 1) {
@@ -155,8 +179,11 @@ TEST_F(VulkanTiled, StorageBufferReadsGiveTheSameResults) {
     const std::string saved = before ? before : "";
     ::setenv("PSUB_VULKAN_TEXELS", "0", 1);
     const Tiled t = tiledFor(test::loadTorus(40, 24), 5);
-    compareWithCpu(context(), t, 3, 0.0);
-    compareWithCpu(context(), t, 5, 1e-6);
+    for (TileKernel kernel : kTileKernels) {
+        SCOPED_TRACE(kernelName(kernel));
+        compareWithCpu(context(), t, 3, 0.0, withKernel(kernel));
+        compareWithCpu(context(), t, 5, 1e-6, withKernel(kernel));
+    }
     const Tiled spot = tiledFor(test::load(test::dataPath("spot_control_mesh.obj")), 4);
     compareWithCpu(context(), spot, 3, 1e-6);
     if (before) ::setenv("PSUB_VULKAN_TEXELS", saved.c_str(), 1);

@@ -137,7 +137,14 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     Uploader uploader(c, !e.staging);
     if (form == TableForm::Factorized) e.buildFactorized(factorized, uploader);
     else e.buildPerLevel(perLevel, uploader);
-    if (tiled) e.buildTiles(*tiled, uploader);
+    // The unrolled tile kernel takes at most 4 values per vertex (one vec4 per grid point: wider
+    // vertices' loops over the values did not unroll, and lavapipe took minutes to compile).
+    if (tiled)
+        e.buildTiles(*tiled,
+                     width <= 4 && (options.tileKernel == TileKernel::Unrolled ||
+                                    (options.tileKernel == TileKernel::Auto &&
+                                     c.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU)),
+                     uploader);
     if (e.hasSurface) {
         e.buildNormals(surface, uploader);
         if (e.staging)

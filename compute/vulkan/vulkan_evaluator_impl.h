@@ -155,7 +155,7 @@ struct VulkanEvaluator::Impl {
     Dispatch dispatch(std::uint64_t rows) const;
     void buildPerLevel(const PerLevelTable& table, Uploader& uploader);
     void buildFactorized(const FactorizedTable& table, Uploader& uploader);
-    void buildTiles(const TiledTable& table, Uploader& uploader);  // after buildPerLevel(table.rows)
+    void buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader);  // after buildPerLevel(table.rows)
     void buildNormals(const SurfaceTable& surface, Uploader& uploader);
     void writeDescriptorSets();
 

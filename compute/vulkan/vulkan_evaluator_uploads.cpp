@@ -181,28 +181,31 @@ void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Upload
     stencilStages.push_back(std::move(stage));
 }
 
-void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, Uploader& uploader) {
-    // One workgroup per block of at most PSUB_TILE_BLOCK lattice intervals a side; a tile's
-    // blocks in order. Dispatches cover whole tiles whose gathered grids, border entries and
-    // block records each fit one binding.
+void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader) {
+    // One workgroup (unrolled: one invocation) per block of at most PSUB_TILE_BLOCK lattice
+    // intervals a side; a tile's blocks in order. Dispatches cover whole tiles whose gathered
+    // grids, border entries and block records each fit one binding.
     if (table.tileCount() == 0) return;
     const std::uint32_t t = table.doubleSteps, halo = table.halo;
     std::uint32_t n = (PSUB_TILE_BLOCK >> t) + 2 * halo + 1, largest = n;
     for (std::uint32_t s = 0; s + 1 < t; ++s) largest = std::max(largest, n = 2 * n - 9);
-    if (t == 0 || t > 3 || largest > PSUB_TILE_GRID)
+    // The unrolled kernel compiles in the halo of t, t + 1 (docs/tiled.md).
+    if (t == 0 || t > 3 || largest > PSUB_TILE_GRID || (unrolled && halo != t + 1))
         throw std::invalid_argument("VulkanEvaluator: the tiled table's " + std::to_string(t) + " double steps and halo " +
                                     std::to_string(halo) + " need grids beyond the tile kernel's");
-    // A tile of side L is cut into (L / M)^2 blocks, M the largest multiple of 2^t dividing L
-    // and at most PSUB_TILE_BLOCK (whole level-B cells, so a block's window is a part of the
-    // tile's gathered grid).
+    // Workgroup kernel: a tile of side L is cut into (L / M)^2 blocks, M the largest multiple of
+    // 2^t dividing L and at most PSUB_TILE_BLOCK (whole level-B cells, so a block's window is a
+    // part of the tile's gathered grid). Unrolled kernel: M = PSUB_TILE_BLOCK, compiled in, the
+    // last block of a row or column cut by the tile's side.
     const auto blockSide = [&](std::uint32_t L) {
+        if (unrolled) return std::uint32_t(PSUB_TILE_BLOCK);
         std::uint32_t M = std::min<std::uint32_t>(L, PSUB_TILE_BLOCK) >> t << t;
         while (L % M != 0) M -= 1u << t;
         return M;
     };
     const auto blocksOf = [&](std::size_t k) {
-        const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k));
-        return (L / M) * (L / M);
+        const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k)), perSide = (L + M - 1) / M;
+        return perSide * perSide;
     };
     std::vector<std::uint64_t> blockBegin{0};  // per tile: its first block
     for (std::size_t k = 0; k < table.tileCount(); ++k) blockBegin.push_back(blockBegin.back() + blocksOf(k));
@@ -240,13 +243,14 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, Uploader& upload
         },
         tables);
     Stage stage;
-    stage.kernel = Kernel::Tile;
+    stage.kernel = unrolled ? Kernel::TileUnrolled : Kernel::Tile;
     const VertexBuffer& base = levels[table.baseLevel];
     stage.specialization = {width, base.stride, refinedBuffer().stride, base.windows > 1, refinedBuffer().windows > 1};
+    stage.specialization.tileSteps = t;
     stage.written = &refinedBuffer();
     for (const auto& [a, b] : chunks) {
         const std::uint64_t blocks = blockBegin[b] - blockBegin[a];
-        Dispatch d = dispatch(blocks * PSUB_WORKGROUP_SIZE);  // one workgroup per block
+        Dispatch d = dispatch(unrolled ? blocks : blocks * PSUB_WORKGROUP_SIZE);
         d.source = &base;
         d.destination = &refinedBuffer();
         d.tables[0] = window(records, sizeof(TileRecord), blockBegin[a], blockBegin[b]);

@@ -35,11 +35,20 @@ enum class Staging {
     Always,  // staging buffers and copy commands even where memory is host-visible
 };
 
+// The tiled form's kernel for its regular tiles (docs/tiled.md, "On Vulkan").
+enum class TileKernel {
+    Auto,       // Unrolled on a CPU device (lavapipe), Workgroup on any other
+    Workgroup,  // shaders/tile.comp: one workgroup per block, grids in workgroup-shared memory
+    Unrolled,   // shaders/tile_unrolled.comp: one invocation per block, grids unrolled into registers
+                // (at most 4 values per vertex; wider vertices take the workgroup kernel)
+};
+
 struct VulkanEvaluatorOptions {
     Staging staging = Staging::Auto;
     // Largest byte range bound to one descriptor: 0 means the device's maxStorageBufferRange.
     // Smaller values force the windowed path (bound ranges, split dispatches) on small meshes.
     std::uint64_t maxBindingBytes = 0;
+    TileKernel tileKernel = TileKernel::Auto;
 };
 
 // GPU-side time of the last frame, from timestamp queries (valid is false when the queue has

@@ -1,0 +1,108 @@
+// shaders/tile_common.glsl: what the two tile kernels share (tile.comp: one workgroup per
+// block, grids in shared memory; tile_unrolled.comp: one invocation per block, grids unrolled
+// into registers): the tables, the block record, the regular masks' sums over the kernel's
+// grids and the write of a lattice point its tile owns (docs/tiled.md, "On Vulkan"). The sums
+// are the CPU kernel's (compute/tiled_kernels.cpp), in its order, marked precise. The including
+// kernel declares its grids first: grid (the current level), qv and qf (its quincunx level).
+
+// TABLE_A: the dispatch's block records (config.h, PSUB_TILE_RECORD_MEMBERS); TABLE_B: the tiled
+// table's gathered level-B vertices; TABLE_C: its border points' drawing positions.
+layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Blocks { uvec4 blocks[]; };
+layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Gather { uint gathered[]; };
+layout(std430, binding = PSUB_BINDING_TABLE_C) readonly buffer Border { uint border[]; };
+
+uvec4 blockWord4(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)) : blocks[i]; }
+uint gatheredAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : gathered[i]; }
+uint borderAt(uint i) { return kTexels ? texelFetch(tableTexelsC, int(i)).x : border[i]; }
+
+// Values first .. first + 3 of input element `element` (those beyond kComponents 0).
+vec4 readValues(uint element, uint first) {
+    if (kComponents <= 4u) return readElement(element);
+    const Place p = sourcePlace(element);
+    vec4 value = vec4(0.0);
+    for (uint i = 0u; i < 4u && first + i < kComponents; ++i) value[i] = readSource(p, first + i);
+    return value;
+}
+
+void writeValues(uint element, uint first, vec4 value) {
+    if (kComponents <= 4u) {
+        writeElement(element, value);
+        return;
+    }
+    const Place p = destinationPlace(element);
+    for (uint i = 0u; i < 4u && first + i < kComponents; ++i) writeDestination(p, first + i, value[i]);
+}
+
+// The V-point of a regular vertex v: its four edge neighbours as the opposite pairs (a, b) and
+// (c, d), its four diagonal ones as the opposite pairs (e, f) and (g, h) (weights 1/4, 1/8,
+// 1/16). Pairing opposite points makes the sum the same under the rotations and reflections
+// between two tiles' frames.
+vec4 vertexPoint(vec4 v, vec4 a, vec4 b, vec4 c, vec4 d, vec4 e, vec4 f, vec4 g, vec4 h) {
+    precise vec4 value = 0.25 * v + 0.125 * ((a + b) + (c + d)) + 0.0625 * ((e + f) + (g + h));
+    return value;
+}
+
+// The F-point of a quad: (a, b) and (c, d) its two pairs of opposite corners.
+vec4 facePoint(vec4 a, vec4 b, vec4 c, vec4 d) {
+    precise vec4 value = 0.25 * ((a + b) + (c + d));
+    return value;
+}
+
+// The quincunx level of the n x n grid: the V-point of its inner vertex c, the F-point of the
+// cell whose first corner is c.
+vec4 quincunxVertex(uint c, uint n) {
+    return vertexPoint(grid[c], grid[c - n], grid[c + n], grid[c - 1u], grid[c + 1u], grid[c - n - 1u], grid[c + n + 1u],
+                       grid[c - n + 1u], grid[c + n - 1u]);
+}
+vec4 quincunxFace(uint c, uint n) { return facePoint(grid[c], grid[c + n + 1u], grid[c + 1u], grid[c + n]); }
+
+// The fine point of parities (px, py) at V(i, j) = qv[v] and F(i, j) = qf[f] of a quincunx level
+// with nv x nv V-points and nf x nf F-points. Call with constant parities: the rule is chosen
+// when compiling (lavapipe would run all four rules for every lane under a branch).
+vec4 finePoint(const uint px, const uint py, uint v, uint f, uint nv, uint nf) {
+    vec4 value;
+    if (px == 0u && py == 0u)  // the V-point of V(i, j)
+        value = vertexPoint(qv[v], qf[f - nf - 1u], qf[f], qf[f - nf], qf[f - 1u], qv[v - 1u], qv[v + 1u], qv[v - nv],
+                            qv[v + nv]);
+    else if (py == 0u)  // the diamond across x
+        value = facePoint(qv[v], qv[v + 1u], qf[f - nf], qf[f]);
+    else if (px == 0u)  // the diamond across y
+        value = facePoint(qv[v], qv[v + nv], qf[f - 1u], qf[f]);
+    else  // the V-point of F(i, j)
+        value = vertexPoint(qf[f], qv[v], qv[v + nv + 1u], qv[v + 1u], qv[v + nv], qf[f - 1u], qf[f + 1u], qf[f - nf],
+                            qf[f + nf]);
+    return value;
+}
+
+// The block being computed (set once per invocation by readBlock).
+uint gatherFirst, gridSide, blockX0, blockY0, blockL, blockM, outputBegin, outputEnd, borderFirst, firstValue;
+
+void readBlock(uint block) {
+    const uvec4 a = blockWord4(2u * (pc.tableBase + block)), b = blockWord4(2u * (pc.tableBase + block) + 1u);
+    gatherFirst = a.x;
+    gridSide = a.y;
+    blockL = a.z;
+    blockM = a.w;
+    blockX0 = b.x & 0xffffu;
+    blockY0 = b.x >> 16;
+    outputBegin = b.y;
+    outputEnd = b.z;
+    borderFirst = b.w;
+}
+
+// Writes the block's lattice point (x, y) if its tile owns it. Each point of the tile's lattice
+// is written by one block (the right and top edges by the last block of their row or column);
+// points beyond the lattice (a last block cut by the tile's side) by none.
+void emit(uint x, uint y, vec4 value) {
+    const uint X = blockX0 + x, Y = blockY0 + y, L = blockL, M = blockM;
+    if (X > L || Y > L || (x == M && X != L) || (y == M && Y != L)) return;
+    uint at;
+    if (X > 0u && X < L && Y > 0u && Y < L) {
+        at = outputBegin + (Y - 1u) * (L - 1u) + X - 1u;
+    } else {  // border entries: row 0 whole, the two ends of each row between, row L whole
+        const uint e = Y == 0u ? X : Y == L ? 3u * L - 1u + X : L + 2u * Y - 1u + (X == L ? 1u : 0u);
+        at = borderAt(borderFirst + e);
+        if (at < outputBegin || at >= outputEnd) return;
+    }
+    writeValues(at, firstValue, value);
+}

@@ -1,0 +1,82 @@
+#version 450
+// shaders/tile_unrolled.comp: the tiled form's regular tiles for CPU devices (lavapipe), where
+// workgroup-shared memory is slow (docs/tiled.md, "On Vulkan"). One invocation computes one
+// block of PSUB_TILE_BLOCK x PSUB_TILE_BLOCK lattice intervals of a tile: with t and the block
+// side compiled in, every loop unrolls and every grid index is a constant, so the grids live in
+// registers (and the stack) instead of memory whose address differs between lanes. The last
+// block of a row or column may reach past the tile's side: its window is clamped to the tile's
+// gathered grid and the points past the side are not written. At most 4 values per vertex
+// (one vec4 per grid point). Same sums as tile.comp and the CPU kernel, so the same bits.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#include "common.glsl"
+
+layout(constant_id = PSUB_SPEC_TILE_STEPS) const uint kSteps = 1;  // t, double steps (1 to 3)
+const uint kHalo = kSteps + 1u;  // ceil(c_t) = 2, 3, 4 (docs/tiled.md)
+const uint kBlock = PSUB_TILE_BLOCK;  // M, the block's side
+const uint kWindow = (kBlock >> kSteps) + 2u * kHalo + 1u;  // the block's level-B window side
+const uint kGrid = PSUB_TILE_GRID;
+const uint kSide1 = 2u * kWindow - 9u, kSide2 = 2u * kSide1 - 9u;  // the grids after one and two double steps
+const uint kLastSide = kSteps == 1u ? kWindow : kSteps == 2u ? kSide1 : kSide2;  // the last step's grid
+
+vec4 grid[kGrid * kGrid];              // the current level's grid, row by row
+vec4 qv[(kGrid - 2u) * (kGrid - 2u)];  // its inner vertices' V-points
+vec4 qf[(kGrid - 1u) * (kGrid - 1u)];  // its cells' F-points
+
+#include "tile_common.glsl"
+
+// The first half of a double step on the n x n grid (tile.comp, quincunx).
+void quincunx(const uint n) {
+    const uint nv = n - 2u, nf = n - 1u;
+    [[unroll]] for (uint y = 1u; y + 1u < n; ++y)
+        [[unroll]] for (uint x = 1u; x + 1u < n; ++x) qv[(y - 1u) * nv + x - 1u] = quincunxVertex(y * n + x, n);
+    [[unroll]] for (uint y = 0u; y + 1u < n; ++y)
+        [[unroll]] for (uint x = 0u; x + 1u < n; ++x) qf[y * nf + x] = quincunxFace(y * n + x, n);
+}
+
+// The second half (tile.comp, fineKind): the fine points of parities (px, py) in [0, side)^2
+// from p0, into the grid or, when `last`, to the finest level.
+void fineKind(const uint px, const uint py, const uint n, const uint p0, const uint side, const bool last) {
+    const uint nv = n - 2u, nf = n - 1u;
+    [[unroll]] for (uint y = py; y < side; y += 2u)
+        [[unroll]] for (uint x = px; x < side; x += 2u) {
+            const uint i = (p0 + x) / 2u + 2u, j = (p0 + y) / 2u + 2u;
+            const vec4 value = finePoint(px, py, (j - 1u) * nv + i - 1u, j * nf + i, nv, nf);
+            if (last) emit(x, y, value);
+            else grid[y * side + x] = value;
+        }
+}
+
+void fineStep(const uint n, const uint p0, const uint side, const bool last) {
+    fineKind(0u, 0u, n, p0, side, last);
+    fineKind(1u, 0u, n, p0, side, last);
+    fineKind(0u, 1u, n, p0, side, last);
+    fineKind(1u, 1u, n, p0, side, last);
+}
+
+void main() {
+    const uint block = rowIndex();
+    if (block >= pc.rowCount) return;
+    readBlock(block);
+    // The window's last row and column within the tile's gathered grid.
+    const uint lastX = gridSide - 1u - (blockX0 >> kSteps), lastY = gridSide - 1u - (blockY0 >> kSteps);
+    const uint r0 = (kHalo << kSteps) + 4u - (4u << kSteps);  // lattice point (0, 0) in the last fine grid
+    for (firstValue = 0u; firstValue < kComponents; firstValue += 4u) {
+        [[unroll]] for (uint y = 0u; y < kWindow; ++y)
+            [[unroll]] for (uint x = 0u; x < kWindow; ++x)
+                grid[y * kWindow + x] =
+                    readValues(gatheredAt(gatherFirst + min(y, lastY) * gridSide + min(x, lastX)), firstValue);
+        // Spelt out per step, no loop over the steps: with one (even never run), lavapipe
+        // unrolled nothing (50 s to compile, slower than the workgroup kernel).
+        if (kSteps >= 2u) {
+            quincunx(kWindow);
+            fineStep(kWindow, 0u, kSide1, false);
+        }
+        if (kSteps >= 3u) {
+            quincunx(kSide1);
+            fineStep(kSide1, 0u, kSide2, false);
+        }
+        quincunx(kLastSide);
+        fineStep(kLastSide, r0, kBlock + 1u, true);
+    }
+}
