@@ -106,21 +106,24 @@ double largestDifference(const std::vector<float>& out, const Reference& referen
     return worst;
 }
 
-// The demo's Vulkan line: the per-level tables on the Vulkan backend, the same frames as the CPU
-// lines, and the largest difference to the CPU backend's result; or why it is not there.
+// The demo's Vulkan lines: the per-level and the tiled tables on the Vulkan backend, the same
+// frames as the CPU lines, and the largest difference to the CPU backend's result of the same
+// form (the tiled one in its drawing order); or why they are not there.
 void printVulkanFrames(const Refinement& r, const Loaded& loaded) {
     try {
-        const std::unique_ptr<Evaluator> gpu = makeEvaluator(Backend::Vulkan, tablesOf(r), TableForm::PerLevel, nullptr);
-        std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(gpu->refinedCount())),
-            cpuOut(out.size());
-        const std::vector<double> frameMs = timeWaveFrames(*gpu, loaded.mesh.positions, control, out);
-        const StageTimes stages = gpu->lastTimes();
-        makeEvaluator(Backend::Cpu, tablesOf(r), TableForm::PerLevel, nullptr)->evaluate(control, cpuOut);
-        std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (last frame: upload %.3f, submit to fence %.3f, "
-                    "read back %.3f ms; %s)  max |vulkan - cpu| = %.2g\n",
-                    "vulkan", frameMs[frameMs.size() / 2], frameMs.front(), stages.uploadMs,
-                    stages.evaluateMs + stages.normalsMs, stages.readbackMs, gpu->device().c_str(),
-                    largestDifference(out, cpuOut));
+        for (TableForm form : {TableForm::PerLevel, TableForm::Tiled}) {
+            const std::unique_ptr<Evaluator> gpu = makeEvaluator(Backend::Vulkan, tablesOf(r), form, nullptr);
+            std::vector<float> control(loaded.mesh.positions.size()), out(3 * std::size_t(gpu->refinedCount())),
+                cpuOut(out.size());
+            const std::vector<double> frameMs = timeWaveFrames(*gpu, loaded.mesh.positions, control, out);
+            const StageTimes stages = gpu->lastTimes();
+            makeEvaluator(Backend::Cpu, tablesOf(r), form, nullptr)->evaluate(control, cpuOut);
+            std::printf("  %-10s  median %7.3f ms  min %7.3f ms  (last frame: upload %.3f, submit to fence %.3f, "
+                        "read back %.3f ms; %s)  max |vulkan - cpu| = %.2g\n",
+                        form == TableForm::Tiled ? "vulkan tiled" : "vulkan", frameMs[frameMs.size() / 2],
+                        frameMs.front(), stages.uploadMs, stages.evaluateMs + stages.normalsMs, stages.readbackMs,
+                        gpu->device().c_str(), largestDifference(out, cpuOut));
+        }
     } catch (const std::runtime_error& e) {  // VulkanError, or psub built without Vulkan
         std::printf("  %-10s  unavailable: %s\n", "vulkan", e.what());
     }

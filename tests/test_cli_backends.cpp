@@ -27,7 +27,7 @@ TEST_F(CliBackends, DemoOnBadInputPrintsOnlyTheErrorLine) {
     refused("demo --model bad.obj --levels 1", 1, {"bad.obj"});
 }
 
-TEST_F(CliBackends, DemoTimesTheCpuFormsAndComparesVulkan) {
+TEST_F(CliBackends, DemoTimesTheCpuFormsAndComparesBothVulkanForms) {
     const Run run = psub("demo --model " + test::quoted(kCube) + " --levels 2", 300);
     ASSERT_EQ(run.status, 0) << run.err;
     EXPECT_EQ(run.out.find("PSub demo: "), 0u) << run.out;
@@ -43,8 +43,13 @@ TEST_F(CliBackends, DemoTimesTheCpuFormsAndComparesVulkan) {
         EXPECT_LT(numberAfter(run.out.substr(at), "max |table - rules| = "), 1e-5) << line << "\n" << run.out;
     }
     if (contains(run.out, "vulkan      unavailable: ") && noVulkanAllowed()) GTEST_SKIP() << run.out;
-    // Vulkan and CPU both in float on the same tables: the same 1e-5 bound (derived above).
-    EXPECT_LT(numberAfter(run.out, "max |vulkan - cpu| = "), 1e-5) << run.out;
+    // Vulkan and CPU both in float on the same tables, per-level and tiled: the same 1e-5 bound
+    // (derived above).
+    for (const char* line : {"  vulkan      median", "  vulkan tiled  median"}) {
+        const std::size_t at = run.out.find(line);
+        ASSERT_NE(at, std::string::npos) << line << "\n" << run.out;
+        EXPECT_LT(numberAfter(run.out.substr(at), "max |vulkan - cpu| = "), 1e-5) << line << "\n" << run.out;
+    }
 }
 
 TEST_F(CliBackends, SubdivideOnVulkanMatchesTheCpu) {
