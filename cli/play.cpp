@@ -291,7 +291,7 @@ void refineAnimated(Playback& p) {
     options.rules = o.rules;
     options.boundary = o.boundary;
     options.factorized = o.form == kFormFactorized;
-    options.tiled = o.form == kFormTiled || (o.form == kFormAuto && o.backend == Backend::Cpu);
+    options.tiled = o.form == kFormTiled || o.form == kFormAuto;
     p.refinement = refine(mesh, connectivity, options);
     if (o.verify) {
         Verifier v{refineTopology(mesh.faces, connectivity, preprocess, o.levels, {}, o.boundary), o.rules, {}, 0, 0};
@@ -304,7 +304,7 @@ void refineAnimated(Playback& p) {
 }
 
 // Median milliseconds of a few evaluations of the rest pose (the auto form's quick timing).
-double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& control, std::vector<float>& out) {
+double quickFrameMs(Evaluator& evaluator, const std::vector<float>& control, std::vector<float>& out) {
     std::vector<double> ms;
     evaluator.evaluate(control, out);  // warm-up
     for (int k = 0; k < 5; ++k) {
@@ -316,13 +316,13 @@ double quickFrameMs(CpuEvaluator<float>& evaluator, const std::vector<float>& co
     return ms[ms.size() / 2];
 }
 
-// The table form: the forced one; or (auto) on Vulkan the per-level rows (no timing at load
-// there: the tile kernels compile for seconds on lavapipe on first use, and the workgroup
-// kernel is unmeasured on GPUs; docs/tiled.md), on the CPU the tiled form when it has tiles
-// and a quick timing of both on the rest pose finds it faster than the per-level rows (on
-// meshes whose finest points come mostly from the fallback it is slower; docs/tiled.md).
-// Textured or not: the tiled form draws the texture with its own faces (TiledTable::uvFace...).
-void chooseForm(Playback& p) {
+// The table form: the forced one; or (auto) the tiled form when it has tiles and a quick timing
+// of both on the rest pose, on the playing backend, finds it faster than the per-level rows (on
+// meshes whose finest points come mostly from the fallback it is slower; docs/tiled.md); the
+// faster evaluator is kept. On lavapipe the tile kernel's first compile takes seconds (Mesa's
+// shader cache keeps it). Textured or not: the tiled form draws the texture with its own faces
+// (TiledTable::uvFace...). `context`: the Vulkan context when playing on Vulkan.
+void chooseForm(Playback& p, VulkanContext* context) {
     const Refinement& r = p.refinement;
     if (p.o.form != kFormAuto) {
         p.form = p.o.form == kFormTiled ? TableForm::Tiled
@@ -330,19 +330,17 @@ void chooseForm(Playback& p) {
         p.formReason = "forced";
         return;
     }
-    if (p.o.backend != Backend::Cpu) {
-        p.formReason = "auto: per-level on Vulkan";
-        return;
-    }
     if (r.tiled.tileCount() == 0) {
         p.formReason = "auto: no regular tiles";
         return;
     }
     p.animated.pose(0, p.control);
-    CpuEvaluator<float> perLevel(r.perLevel, r.factorized, r.surface, TableForm::PerLevel), tiled(r.tiled);
-    const double perLevelMs = quickFrameMs(perLevel, p.control, p.refined);
-    const double tiledMs = quickFrameMs(tiled, p.control, p.refined);
+    std::unique_ptr<Evaluator> perLevel = makeEvaluator(p.o.backend, tablesOf(r), TableForm::PerLevel, context);
+    std::unique_ptr<Evaluator> tiled = makeEvaluator(p.o.backend, tablesOf(r), TableForm::Tiled, context);
+    const double perLevelMs = quickFrameMs(*perLevel, p.control, p.refined);
+    const double tiledMs = quickFrameMs(*tiled, p.control, p.refined);
     p.form = tiledMs < perLevelMs ? TableForm::Tiled : TableForm::PerLevel;
+    p.evaluator = std::move(p.form == TableForm::Tiled ? tiled : perLevel);
     char reason[160];
     std::snprintf(reason, sizeof reason, "auto: %.0f%% of the points tiled; rest pose %.3f ms tiled, %.3f ms per-level",
                   100.0 * r.tiled.fallbackBegin / std::max(1u, r.tiled.refinedCount), tiledMs, perLevelMs);
@@ -354,12 +352,13 @@ void chooseForm(Playback& p) {
 int prepare(Playback& p) {
     const PlayOptions& o = p.o;
     const Refinement& r = p.refinement;
-    chooseForm(p);
 #if PSUB_HAVE_VULKAN
     if (o.backend == Backend::Vulkan || p.rendering()) {
         try {
             p.context = std::make_unique<VulkanContext>();
-            if (o.backend == Backend::Vulkan) p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, p.context.get());
+            VulkanContext* context = o.backend == Backend::Vulkan ? p.context.get() : nullptr;
+            chooseForm(p, context);
+            if (!p.evaluator && context) p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, context);
         } catch (const VulkanError& e) {
             std::fprintf(stderr, "psub: error: play: %s\n", e.what());
             return 1;
@@ -377,11 +376,12 @@ int prepare(Playback& p) {
         return 1;
     }
 #endif
-    if (p.form == TableForm::Tiled) p.canonical.resize(p.refined.size());
 #if PSUB_HAVE_VULKAN
-    if (!p.evaluator)
+    if (!p.context)
 #endif
-        p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, nullptr);
+        chooseForm(p, nullptr);
+    if (p.form == TableForm::Tiled) p.canonical.resize(p.refined.size());
+    if (!p.evaluator) p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, nullptr);
     p.device = p.evaluator->device();
 #if PSUB_HAVE_RENDER
     // A Vulkan evaluator's results are drawn where they are, with no read-back (unless --verify
@@ -518,8 +518,8 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
     addChoice(pl, "--form", o.form, kPlayForms,
-              "table form: auto (on the CPU the tiled form when a quick timing at load finds it faster than "
-              "the per-level rows; on Vulkan per-level), per-level, factorized or tiled",
+              "table form: auto (the tiled form when a quick timing of both at load, on the chosen backend, "
+              "finds it faster than the per-level rows), per-level, factorized or tiled",
               "auto");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");

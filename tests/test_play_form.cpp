@@ -89,9 +89,9 @@ TEST(PlayForm, AutoTimesBothFormsOnATiledMesh) {
     fs::remove(torus);
 }
 
-// On Vulkan too: the tiled form (shaders/tile.comp) plays the oracle's frames; auto keeps the
-// per-level rows there. No device fails the test (a skip only with PSUB_ALLOW_NO_VULKAN=1).
-TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoIsPerLevel) {
+// On Vulkan too: the tiled form (a tile kernel) plays the oracle's frames, and auto times both
+// forms on the device. No device fails the test (a skip only with PSUB_ALLOW_NO_VULKAN=1).
+TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoTimesBoth) {
     const std::string torus = writeTorus(24);
     for (const std::string form : {"tiled", "per-level", "factorized", "auto"}) {
         const Outcome run =
@@ -99,7 +99,7 @@ TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoIsPerLevel) {
         if (run.status != 0 && contains(run.err, "Vulkan") && psub::test::noVulkanAllowed())
             GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << run.err;
         EXPECT_EQ(run.status, 0) << form << ": " << run.err;
-        EXPECT_TRUE(contains(run.out, form == "auto" ? "Table form: per-level (auto: per-level on Vulkan)"
+        EXPECT_TRUE(contains(run.out, form == "auto" ? "(auto: 100% of the points tiled; rest pose "
                                                      : "Table form: " + form + " (forced)"))
             << run.out;
         EXPECT_TRUE(contains(run.out, "Verified: all 3 frames")) << run.out;
