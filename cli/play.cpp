@@ -318,10 +318,10 @@ double quickFrameMs(Evaluator& evaluator, const std::vector<float>& control, std
 
 // The table form: the forced one; or (auto) the tiled form when it has tiles and a quick timing
 // of both on the rest pose, on the playing backend, finds it faster than the per-level rows (on
-// meshes whose finest points come mostly from the fallback it is slower; docs/tiled.md); the
-// faster evaluator is kept. On lavapipe the tile kernel's first compile takes seconds (Mesa's
-// shader cache keeps it). Textured or not: the tiled form draws the texture with its own faces
-// (TiledTable::uvFace...). `context`: the Vulkan context when playing on Vulkan.
+// meshes whose finest points come mostly from the fallback it is slower; docs/tiled.md). On
+// lavapipe the tile kernel's first compile takes seconds (Mesa's shader cache keeps it).
+// Textured or not: the tiled form draws the texture with its own faces (TiledTable::uvFace...).
+// `context`: the Vulkan context when playing on Vulkan.
 void chooseForm(Playback& p, VulkanContext* context) {
     const Refinement& r = p.refinement;
     if (p.o.form != kFormAuto) {
@@ -334,13 +334,15 @@ void chooseForm(Playback& p, VulkanContext* context) {
         p.formReason = "auto: no regular tiles";
         return;
     }
+    // One evaluator at a time (a device's memory may hold one mesh's tables, not two); the
+    // tiled one is kept when it wins, the per-level one made again otherwise (by prepare).
     p.animated.pose(0, p.control);
-    std::unique_ptr<Evaluator> perLevel = makeEvaluator(p.o.backend, tablesOf(r), TableForm::PerLevel, context);
+    const double perLevelMs =
+        quickFrameMs(*makeEvaluator(p.o.backend, tablesOf(r), TableForm::PerLevel, context), p.control, p.refined);
     std::unique_ptr<Evaluator> tiled = makeEvaluator(p.o.backend, tablesOf(r), TableForm::Tiled, context);
-    const double perLevelMs = quickFrameMs(*perLevel, p.control, p.refined);
     const double tiledMs = quickFrameMs(*tiled, p.control, p.refined);
     p.form = tiledMs < perLevelMs ? TableForm::Tiled : TableForm::PerLevel;
-    p.evaluator = std::move(p.form == TableForm::Tiled ? tiled : perLevel);
+    if (p.form == TableForm::Tiled) p.evaluator = std::move(tiled);
     char reason[160];
     std::snprintf(reason, sizeof reason, "auto: %.0f%% of the points tiled; rest pose %.3f ms tiled, %.3f ms per-level",
                   100.0 * r.tiled.fallbackBegin / std::max(1u, r.tiled.refinedCount), tiledMs, perLevelMs);
