@@ -21,24 +21,39 @@ constexpr std::uint32_t kNone = ~0u;
 struct Walker {
     const Faces& faces;
     const Connectivity& c;
+    std::vector<std::uint8_t> regularFlags = {};  // regular(v) per vertex, when cached (cacheRegular)
 
     Index head(Index h) const { return faces.verts[c.next[h]]; }
     Index rot(Index h) const { return c.twin[c.next[c.next[c.next[h]]]]; }
     Index rot3(Index h) const { return rot(rot(rot(h))); }
     Index straight(Index h) const { return rot(rot(c.twin[h])); }  // on past head(h)
     bool regular(Index v) const {
+        if (!regularFlags.empty()) return regularFlags[v] != 0;
         if (c.kind[v] != VertexKind::Interior || c.valence[v] != 4) return false;
         for (Index h : c.outgoingOf(v))
             if (faces.faceSize(c.faceOf[h]) != 4) return false;
         return true;
     }
+    // For level B, whose blocks are walked once per side the cost model tries.
+    void cacheRegular() {
+        std::vector<std::uint8_t> flags(faces.vertexCount);
+        for (Index v = 0; v < faces.vertexCount; ++v) flags[v] = regular(v) ? 1 : 0;
+        regularFlags = std::move(flags);
+    }
+};
+
+// Marks for walkBlock's check that a grid's vertices are distinct: vertex v is in the current
+// grid when seen[v] == round (a new round per grid, no clearing).
+struct SeenMarks {
+    std::vector<std::uint32_t> seen;
+    std::uint32_t round = 0;
 };
 
 // The g x g level-B vertices (row by row, x along face f's first edge, y along its last,
 // face f's first corner at (halo, halo)) and the side x side faces of the block, when every
 // one of those vertices is regular and distinct and no face of the block is `covered`.
 bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo, const std::vector<std::uint8_t>& covered,
-               std::vector<Index>& grid, std::vector<Index>& cells) {
+               std::vector<Index>& grid, std::vector<Index>& cells, SeenMarks& marks) {
     if (w.faces.faceSize(f) != 4) return false;
     const std::uint32_t g = side + 2 * halo + 1;
     Index v = w.faces.verts[w.faces.offsets[f]], hx = w.faces.offsets[f];
@@ -77,9 +92,15 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
         if (!w.regular(v)) return false;
         hx = w.rot(w.c.twin[up]);
     }
-    std::vector<Index> sorted = grid;
-    std::sort(sorted.begin(), sorted.end());
-    return std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end();
+    if (marks.seen.size() < w.faces.vertexCount || ++marks.round == 0) {
+        marks.seen.assign(w.faces.vertexCount, 0);
+        marks.round = 1;
+    }
+    for (Index u : grid) {
+        if (marks.seen[u] == marks.round) return false;
+        marks.seen[u] = marks.round;
+    }
+    return true;
 }
 
 // The half-edge leaving `from` on the finest level whose straight walk of `steps` edges ends
@@ -139,9 +160,10 @@ template <class Accept>
 void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo, Accept&& accept) {
     std::vector<std::uint8_t> covered(w.faces.faceCount(), 0);
     std::vector<Index> grid, cells;
+    SeenMarks marks;
     for (std::uint32_t side : sides)
         for (Index f = 0; f < w.faces.faceCount(); ++f) {
-            if (covered[f] || !walkBlock(w, f, side, halo, covered, grid, cells)) continue;
+            if (covered[f] || !walkBlock(w, f, side, halo, covered, grid, cells, marks)) continue;
             if (!accept(side, grid, cells)) continue;
             for (Index c : cells) covered[c] = 1;
         }
@@ -153,6 +175,8 @@ void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::
 // a fixed cost per tile; a finest point no tile has (the per-level rows of every level): a
 // few values. Both constants measured on the 2-core EPYC VM of bench/README.md ("Session 9").
 constexpr double kTileFixedCost = 750, kFallbackPointCost = 6;
+// The largest level B on which chooseSides tries every side (up to 0.06 s more there).
+constexpr Index kEverySideFaces = 1 << 13;
 
 double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
     double values = kTileFixedCost, n = side + 2.0 * halo + 1;
@@ -165,12 +189,14 @@ double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
 }
 
 // The sides of the greedy cover: S, S / 2, S / 4, ... while a tile of that side costs less
-// than its points' rows, S among the largest (kMaxLattice / 2^t) and 3/4, 1/2 and 3/8 of it,
-// the one whose cover costs least (tileCost, and the fallback's points); none when no side is
+// than its points' rows, S any side from the largest (kMaxLattice / 2^t) down to 3/8 of it
+// (past kEverySideFaces only the largest and 3/4, 1/2 and 3/8 of it), the one whose cover
+// costs least (tileCost, and the fallback's points); none when no side is
 // worth a tile. A regular region whose side is no multiple of the largest would otherwise get
-// strips of small tiles (a 36 x 36 torus at t = 2: 24 and 12 instead of 32, 16 and 4), and
-// small regular regions tiles dearer than their rows (Spot at 9 steps: 4,089 tiles, most of a
-// few faces, made the frame twice as slow as the per-level rows).
+// strips of small tiles (a 36 x 36 torus at t = 2: 32, 16 and 4 where four tiles of 18 cost
+// least), and small regular regions tiles dearer than their rows (Spot at 9 steps: 4,089
+// tiles, most of a few faces, made the frame twice as slow as the per-level rows). A side
+// whose cover is no cheaper than a larger one's is not kept: ties keep the larger tiles.
 std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::uint32_t halo) {
     const std::uint32_t largest = TiledTable::kMaxLattice >> t;
     const double finestPerFace = std::ldexp(1.0, 2 * int(t));
@@ -180,10 +206,11 @@ std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::ui
     const auto worthwhile = [&](std::uint32_t side) {
         return side > 0 && tileCost(side, t, halo) < double(side) * side * finestPerFace * kFallbackPointCost;
     };
-    std::uint32_t tried = 0;
-    for (std::uint32_t first : {largest, largest * 3 / 4, largest / 2, largest * 3 / 8}) {
-        if (!worthwhile(first) || first == tried) continue;
-        tried = first;
+    // Each side tried is one greedy cover (a walk from every face).
+    const bool everySide = w.faces.faceCount() <= kEverySideFaces;
+    for (std::uint32_t first = largest; first > 0 && first >= largest * 3 / 8; --first) {
+        const bool listed = first == largest || first == largest * 3 / 4 || first == largest / 2 || first == largest * 3 / 8;
+        if (!(everySide || listed) || !worthwhile(first)) continue;
         std::vector<std::uint32_t> sides{first};
         for (std::uint32_t side = first / 2; worthwhile(side); side /= 2) sides.push_back(side);
         double cost = 0, covered = 0;
@@ -264,7 +291,9 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
     std::vector<std::uint32_t> drawOf(table.refinedCount, kNone);
     std::uint32_t next = 0;
     if (plan.doubleSteps > 0) {
-        const Walker wb{base.faces, base.connectivity}, wf{finest.faces, finest.connectivity};
+        Walker wb{base.faces, base.connectivity};
+        wb.cacheRegular();
+        const Walker wf{finest.faces, finest.connectivity};
         std::vector<Index> points;
         std::vector<std::uint32_t> sides;
         if (plan.sides == TileSides::Every)

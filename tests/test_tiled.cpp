@@ -107,7 +107,8 @@ TEST(Tiled, EqualsTheRulesOnEveryModel) {
 
 // On a torus every point is regular: at even steps from two on, the tiles of a 48 x 32 torus
 // write every finest point (blocks of 16 faces); at odd steps the base level is the quincunx
-// lattice, whose blocks leave strips that the cost model gives to the rows (under 4%).
+// lattice, whose blocks leave strips that the cost model gives to the rows (10% at 3 steps,
+// where four tiles of 26 cost it less than thirteen that leave 4%; under 4% from 5 steps).
 TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
     const test::Loaded torus = loadTorus(48, 32);
     const double scale = diagonal(torus.mesh.positions);
@@ -124,7 +125,7 @@ TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
             EXPECT_EQ(table.rows.levels.back().rowEnd, table.rows.levels.back().rowBegin);  // no fallback rows
         }
         if (steps >= 2 && steps % 2 == 1) {
-            EXPECT_LT(table.refinedCount - table.fallbackBegin, table.refinedCount / 25);
+            EXPECT_LT(table.refinedCount - table.fallbackBegin, table.refinedCount / (steps == 3 ? 8 : 25));
         }
         const std::vector<double> oracle = refinePositions(h, torus.mesh.positions);
         EXPECT_LE(maxDifference(tiledCanonical<float>(table, torus.mesh.positions), oracle), 1e-6 * scale);
@@ -133,12 +134,12 @@ TEST(Tiled, TilesCoverATorusAndEqualTheRules) {
 }
 
 // A regular region whose side is no multiple of the largest tile side (32 at t = 2) gets the
-// tiles its cost model prefers: a 36 x 36 torus one of side 24 and five of 12 (the largest
-// sides' cover would leave strips of 4), a 30 x 30 one four of 12 and nine of 6; every finest
-// point still a tile's, the rules'.
+// tiles its cost model prefers: a 36 x 36 torus four of side 18 (the largest sides' cover
+// would leave strips of 4; 24 and 12 cost 6% more), a 30 x 30 one four of 15 (a tile's grid,
+// side + 7 vertices, must not wrap around); every finest point still a tile's, the rules'.
 TEST(Tiled, TileSidesFollowTheRegularRegion) {
-    const std::set<std::uint32_t> sides36{24, 12}, sides30{12, 6};
-    for (const auto& [n, sides, tiles] : {std::tuple{36u, sides36, 6u}, std::tuple{30u, sides30, 13u}}) {
+    const std::set<std::uint32_t> sides36{18}, sides30{15};
+    for (const auto& [n, sides, tiles] : {std::tuple{36u, sides36, 4u}, std::tuple{30u, sides30, 4u}}) {
         SCOPED_TRACE(n);
         const test::Loaded torus = loadTorus(n, n);
         const Hierarchy h = test::refine(torus, 4);
