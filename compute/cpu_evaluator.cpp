@@ -87,16 +87,15 @@ CpuEvaluator<T>::CpuEvaluator(const TiledTable& tiled, std::uint32_t width, int 
     if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
     allocate();
     tileScratch_.resize(tileScratchSize(tiled, width) * std::size_t(threads_));
-    findTileNormalSets();
+    tileNormals_ = tileNormalSets(tiled);
 }
 
 // The tiles' inner points (each tile's first (L - 1)^2 drawing positions) get their normals in
 // the tile pass, and the faces of each tile's outer ring of quads their face normals; the rest
-// (restVertices_, and the faces touching them that no ring holds: restFaces_) after it.
-template <class T>
-void CpuEvaluator<T>::findTileNormalSets() {
-    const TiledTable& tiled = *tiled_;
+// (restVertices, and the faces touching them that no ring holds: restFaces) after it.
+TileNormalSets tileNormalSets(const TiledTable& tiled) {
     const SurfaceTable& surface = tiled.surface;
+    TileNormalSets sets;
     std::vector<char> inner(surface.vertexCount, 0), inRing(surface.faceOffsets.size() - 1, 0);
     for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
         const std::uint32_t L = tiled.lattice(k);
@@ -110,28 +109,29 @@ void CpuEvaluator<T>::findTileNormalSets() {
                 const auto end = surface.faceVerts.begin() + surface.faceOffsets[f + 1];
                 if (end - begin == 4 && std::find(begin, end, opposite) != end) return f;
             }
-            throw std::logic_error("CpuEvaluator: a tile's lattice quad is not a face of the tiled table's surface");
+            throw std::logic_error("tileNormalSets: a tile's lattice quad is not a face of the tiled table's surface");
         };
-        ringBegin_.push_back(std::uint32_t(ringFaces_.size()));
+        sets.ringBegin.push_back(std::uint32_t(sets.ringFaces.size()));
         for (std::uint32_t y = 0; y < L; ++y)
             for (std::uint32_t x = 0; x < L; x += (y == 0 || y + 1 == L) ? 1 : L - 1) {
-                ringFaces_.push_back(face(x, y));
-                inRing[ringFaces_.back()] = 1;
+                sets.ringFaces.push_back(face(x, y));
+                inRing[sets.ringFaces.back()] = 1;
             }
     }
     std::vector<char> touched(surface.faceOffsets.size() - 1, 0);
     for (std::uint32_t v = 0; v < surface.vertexCount; ++v) {
         if (inner[v]) continue;
-        restVertices_.push_back(v);
+        sets.restVertices.push_back(v);
         for (std::uint32_t i = surface.vertexOffsets[v]; i < surface.vertexOffsets[v + 1]; ++i)
             touched[surface.vertexFaces[i]] = 1;
     }
     for (std::uint32_t f = 0; f < touched.size(); ++f)
-        if (touched[f] && !inRing[f]) restFaces_.push_back(f);
+        if (touched[f] && !inRing[f]) sets.restFaces.push_back(f);
     // Listed vertices cost more each than the plain pass's (an index, scattered reads): where the
     // tiles' inner points are not most of the mesh, the plain pass after the positions is faster
     // (the cow at 7 steps, 20% tiled: 43 ms against 56 ms for both on one thread).
-    tileNormals_ = 2 * restVertices_.size() < std::size_t(surface.vertexCount);
+    sets.worthIt = 2 * sets.restVertices.size() < std::size_t(surface.vertexCount);
+    return sets;
 }
 
 template <class T>
@@ -187,7 +187,7 @@ template <class T>
 void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined, std::span<T> normals) {
     if (normals.empty()) return evaluate(control, refined);
     assert(width_ >= 3 && normals.size() >= 3 * std::size_t(refinedCount()));
-    if (form_ != TableForm::Tiled || perLevel_.levels.empty() || !tileNormals_) {
+    if (form_ != TableForm::Tiled || perLevel_.levels.empty() || !tileNormals_.worthIt) {
         evaluate(control, refined);
         return this->normals(refined, normals);
     }
@@ -223,10 +223,11 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
 #pragma omp for schedule(dynamic, 1)
         for (std::size_t k = 0; k < tiled.tileCount(); ++k)
             evaluateTile(tiled, k, base, width_, refined.data(),
-                         TileNormals<T>{normals, faceNormals_.data(), ringFaces_.data() + (normals ? ringBegin_[k] : 0)},
+                         TileNormals<T>{normals, faceNormals_.data(),
+                                        tileNormals_.ringFaces.data() + (normals ? tileNormals_.ringBegin[k] : 0)},
                          scratch);
         // After the loop's implicit barrier every position is written.
-        if (normals) normalPasses(refined.data(), normals, &restFaces_, &restVertices_);
+        if (normals) normalPasses(refined.data(), normals, &tileNormals_.restFaces, &tileNormals_.restVertices);
     }
 }
 

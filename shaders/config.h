@@ -46,6 +46,8 @@
 #define PSUB_SPEC_ROW_N 6              // level kernel: the rows' edge count when compiled in (0xffffffff: any)
 #define PSUB_SPEC_ROW_M 7              // level kernel: the rows' diagonal count likewise
 #define PSUB_SPEC_TILE_STEPS 8         // tile_unrolled.comp: t, the double steps it unrolls
+#define PSUB_SPEC_LISTED 9             // face and vertex normals: rows are the faces or vertices
+                                       // listed in TABLE_A (fixed layouts only), not a range
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once
@@ -115,5 +117,12 @@
     uint outputBegin;                                                                          \
     uint outputEnd;                                                                            \
     uint borderFirst;
+
+// tile_normals.comp: the tiled form's normals of tiles' inner points, from the refined
+// positions by implicit addressing. One invocation per run of at most PSUB_NORMAL_RUN inner
+// points of one lattice row; a run record (uvec4 in TABLE_A): x = the tile's first inner point's
+// drawing position, y = L | row << 16, z = the tile's first border entry in the TABLE_B window
+// (the tiled table's border positions), w = the run's first x (from 1).
+#define PSUB_NORMAL_RUN 8
 
 #endif

@@ -17,6 +17,10 @@ uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : cor
 // PSUB_SPEC_ROW_N = 4: every face is a quad, its corners at 4 row from pc.tableBase in the
 // TABLE_B window (no offsets; one uvec4 fetch).
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kCorners = 0xffffffffu;
+// PSUB_SPEC_LISTED (with kCorners = 4): row r is face offsets[pc.rowBase + r] (TABLE_A), its
+// corners at 4 face from pc.tableBase, written at its own
+// element (the tiled form's faces beside its tiles' inner points).
+layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
 vec3 quadNormal(vec3 p0, vec3 p1, vec3 p2, vec3 p3) {
     precise vec3 a = p2 - p0, b = p3 - p1;
@@ -29,10 +33,11 @@ void main() {
     if (row >= pc.rowCount) return;
     precise vec3 n = vec3(0.0);
     if (kCorners == 4u) {
-        const uint base = pc.tableBase + 4u * row;
+        const uint face = kListed ? offsetAt(pc.rowBase + row) : row;
+        const uint base = pc.tableBase + 4u * face;
         const uvec4 c = kTexels ? texelFetch(tableTexelsB, int(base / 4u))
                                 : uvec4(corners[base], corners[base + 1u], corners[base + 2u], corners[base + 3u]);
-        writeElement(pc.rowBase + row, vec4(quadNormal(readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz,
+        writeElement(kListed ? face : pc.rowBase + row, vec4(quadNormal(readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz,
                                                        readElement(c.w).xyz), 0.0));
         return;
     }

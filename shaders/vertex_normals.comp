@@ -17,6 +17,10 @@ uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : fac
 // pc.tableBase (no offsets; pc.groupCount = 2 uvec4s). The first four are added unconditionally (adding +0 changes no
 // sum), the next four in a loop that lavapipe skips unless a lane of the SIMD group needs it.
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kWords = 0xffffffffu;
+// PSUB_SPEC_LISTED (with kWords = 8): row r is vertex offsets[pc.rowBase + r] (TABLE_A), its
+// words at 8 vertex from pc.tableBase, written at its own
+// element (the tiled form's vertices that its tile normals pass leaves).
+layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
 uvec4 vertexWords(uint i) {
     if (kTexels) return texelFetch(tableTexelsB, int(i));
@@ -27,8 +31,9 @@ void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
     precise vec3 n = vec3(0.0);
+    const uint vertex = kListed && kWords == 8u ? offsetAt(pc.rowBase + row) : pc.rowBase + row;
     if (kWords == 8u) {
-        const uint base = (pc.tableBase + 8u * row) / 4u;
+        const uint base = (pc.tableBase + 8u * (kListed ? vertex : row)) / 4u;
         const uvec4 q = vertexWords(base);
         n += readElement(q.x).xyz;
         n += readElement(q.y).xyz;
@@ -50,5 +55,5 @@ void main() {
     }
     precise float size = sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
     precise float scale = size > 0.0 ? 1.0 / size : 0.0;
-    writeElement(pc.rowBase + row, vec4(n * scale, 0.0));
+    writeElement(vertex, vec4(n * scale, 0.0));
 }

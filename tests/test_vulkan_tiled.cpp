@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace psub {
@@ -80,7 +81,14 @@ void compareWithCpu(VulkanContext& context, const Tiled& t, std::uint32_t width,
         const std::vector<float> control = animate(t.loaded.mesh.positions, width, frame);
         cpu.evaluate(control, expected);
         if (width >= 3) {
-            cpu.normals(expected, expectedNormals);
+            // Where both split the normals (the tiles' inner points' in the tile pass), the CPU's
+            // split ones; otherwise normals() of the CPU's positions.
+            if (gpu.normalsInTilePass()) {
+                EXPECT_TRUE(cpu.normalsInTilePass());
+                cpu.evaluate(control, expected, expectedNormals);
+            } else {
+                cpu.normals(expected, expectedNormals);
+            }
             gpu.evaluate(control, actual, actualNormals);
             EXPECT_LE(largestDifference(actualNormals, expectedNormals), tolerance == 0 ? 0.0 : 1e-5);
         } else {
@@ -131,6 +139,23 @@ TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
             }
     }
     EXPECT_EQ(doubleSteps, 3u);
+}
+
+// The normals split as the CPU splits them (shaders/tile_normals.comp for the tiles' inner
+// points, listed faces and vertices for the rest): the CPU tile pass's bits, on a torus all
+// tiles, and on one whose odd step count leaves strips of fallback points (listed too).
+TEST_F(VulkanTiled, NormalsOfTheTilesInnerPointsAreTheCpuTilePassBits) {
+    for (const auto& [n, m, steps] : {std::tuple{24, 24, 4}, std::tuple{48, 32, 3}}) {
+        SCOPED_TRACE(std::to_string(n) + " x " + std::to_string(m) + " steps " + std::to_string(steps));
+        const Tiled t = tiledFor(test::loadTorus(n, m), steps);
+        ASSERT_GT(t.r.tiled.tileCount(), 0u);
+        EXPECT_EQ(t.r.tiled.fallbackBegin == t.r.tiled.refinedCount, steps % 2 == 0);
+        for (TileKernel kernel : kTileKernels) {
+            SCOPED_TRACE(kernelName(kernel));
+            EXPECT_TRUE(VulkanEvaluator(context(), t.r.tiled, 3, withKernel(kernel)).normalsInTilePass());
+            compareWithCpu(context(), t, 3, 0.0, withKernel(kernel));
+        }
+    }
 }
 
 // A tile side that is no power of two, at t = 2 on a 30 x 30 torus: four tiles of 15 faces,

@@ -11,6 +11,7 @@
 #include "factorized.spv.h"
 #include "level.spv.h"
 #include "tile.spv.h"
+#include "tile_normals.spv.h"
 #include "tile_unrolled.spv.h"
 #include "vertex_normals.spv.h"
 
@@ -30,6 +31,7 @@ Code code(Kernel kernel) {
     case Kernel::VertexNormals: return {"vertex_normals.comp", psub_spirv_vertex_normals};
     case Kernel::Tile: return {"tile.comp", psub_spirv_tile};
     case Kernel::TileUnrolled: return {"tile_unrolled.comp", psub_spirv_tile_unrolled};
+    case Kernel::TileNormals: return {"tile_normals.comp", psub_spirv_tile_normals};
     }
     return {"?", {}};
 }
@@ -107,19 +109,21 @@ void Pipelines::release() {
 
 VkPipeline Pipelines::get(Kernel kernel, const Specialization& s) {
     const auto [components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN, rowM,
-                tileSteps] = s.key();
+                tileSteps, listed] = s.key();
     const auto key = std::tuple(int(kernel), components, sourceStride, destinationStride, sourceWindowed,
-                                destinationWindowed, texels, rowN, rowM, tileSteps);
+                                destinationWindowed, texels, rowN, rowM, tileSteps, listed);
     std::lock_guard guard(lock_);
     if (auto found = pipelines_.find(key); found != pipelines_.end()) return found->second;
 
-    constexpr std::uint32_t count = 9;
-    const std::uint32_t values[count] = {components, sourceStride, destinationStride, VkBool32(sourceWindowed),
-                                         VkBool32(destinationWindowed), VkBool32(texels), rowN, rowM, tileSteps};
+    constexpr std::uint32_t count = 10;
+    const std::uint32_t values[count] = {components,      sourceStride, destinationStride, VkBool32(sourceWindowed),
+                                         VkBool32(destinationWindowed), VkBool32(texels), rowN, rowM, tileSteps,
+                                         VkBool32(listed)};
     VkSpecializationMapEntry entries[count];
     const std::uint32_t ids[count] = {PSUB_SPEC_COMPONENTS,      PSUB_SPEC_SOURCE_STRIDE,        PSUB_SPEC_DESTINATION_STRIDE,
                                       PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED, PSUB_SPEC_TEXELS,
-                                      PSUB_SPEC_ROW_N,           PSUB_SPEC_ROW_M,                PSUB_SPEC_TILE_STEPS};
+                                      PSUB_SPEC_ROW_N,           PSUB_SPEC_ROW_M,                PSUB_SPEC_TILE_STEPS,
+                                      PSUB_SPEC_LISTED};
     for (std::uint32_t i = 0; i < count; ++i) entries[i] = {ids[i], 4 * i, 4};
     VkSpecializationInfo specialization{count, entries, sizeof values, values};
     VkComputePipelineCreateInfo info{};

@@ -30,8 +30,8 @@ struct TileRecord {
 };
 static_assert(sizeof(PushConstants) == 32 && sizeof(GroupRecord) == 32 && sizeof(TileRecord) == 32);
 
-enum class Kernel { Level, Factorized, FaceNormals, VertexNormals, Tile, TileUnrolled };
-inline constexpr int kKernelCount = 6;
+enum class Kernel { Level, Factorized, FaceNormals, VertexNormals, Tile, TileUnrolled, TileNormals };
+inline constexpr int kKernelCount = 7;
 
 struct Specialization {
     uint components = 3, sourceStride = 3, destinationStride = 3;
@@ -39,10 +39,11 @@ struct Specialization {
     bool texels = false;  // inputs and tables read through the texel-buffer bindings
     uint rowN = ~0u, rowM = ~0u;  // level kernel: the rows' shape when compiled in (~0u: any)
     uint tileSteps = 1;           // unrolled tile kernel: t
+    bool listed = false;          // face and vertex normals: over listed faces or vertices
 
     auto key() const {
         return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN,
-                          rowM, tileSteps);
+                          rowM, tileSteps, listed);
     }
 };
 
@@ -67,7 +68,7 @@ private:
     VkPipelineCache cache_ = VK_NULL_HANDLE;
     VkShaderModule modules_[kKernelCount] = {};
     std::mutex lock_;
-    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint>, VkPipeline> pipelines_;
+    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint, bool>, VkPipeline> pipelines_;
 };
 
 // The context's compute pipelines, made on first use (thread-safe) and kept with the context.

@@ -146,7 +146,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
                                      c.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU)),
                      uploader);
     if (e.hasSurface) {
-        e.buildNormals(surface, uploader);
+        e.buildNormals(surface, tiled, uploader);
         if (e.staging)
             e.normalsHost = createBuffer(c, std::uint64_t(e.refined) * e.normals.stride * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                          Memory::Readback, true);
@@ -163,6 +163,7 @@ std::uint32_t VulkanEvaluator::controlCount() const { return impl_->controls; }
 std::uint32_t VulkanEvaluator::refinedCount() const { return impl_->refined; }
 std::uint32_t VulkanEvaluator::width() const { return impl_->width; }
 GpuFrameTimes VulkanEvaluator::lastFrameTimes() const { return impl_->times; }
+bool VulkanEvaluator::normalsInTilePass() const { return impl_->tileNormals; }
 HostFrameTimes VulkanEvaluator::lastHostTimes() const { return impl_->hostTimes; }
 
 std::size_t VulkanEvaluator::dispatchCount(bool withNormals) const {

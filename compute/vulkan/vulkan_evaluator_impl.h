@@ -124,6 +124,7 @@ struct VulkanEvaluator::Impl {
     Buffer controlUpload, refinedHost, normalsHost;  // staging only
     std::vector<Stage> stencilStages, normalStages;
     bool hasSurface = false;
+    bool tileNormals = false;  // the tiled form's normals split (buildTileNormals)
     const SurfaceTable* drawnSurface = nullptr;  // the contract's drawing order (kept by reference)
     VkCommandBuffer deviceFrame = VK_NULL_HANDLE;  // submit(): re-recorded per call
     VkFence deviceFence = VK_NULL_HANDLE;          // submit(): signalled when its frame is done
@@ -156,7 +157,8 @@ struct VulkanEvaluator::Impl {
     void buildPerLevel(const PerLevelTable& table, Uploader& uploader);
     void buildFactorized(const FactorizedTable& table, Uploader& uploader);
     void buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader);  // after buildPerLevel(table.rows)
-    void buildNormals(const SurfaceTable& surface, Uploader& uploader);
+    void buildNormals(const SurfaceTable& surface, const TiledTable* tiled, Uploader& uploader);  // tiled: its split
+    bool buildTileNormals(const TiledTable& tiled, const Buffer& corners, const Buffer& vertexWords, Uploader& uploader);
     void writeDescriptorSets();
 
     // Frames.

@@ -270,7 +270,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, U
     stencilStages.push_back(std::move(stage));
 }
 
-void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& uploader) {
+void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const TiledTable* tiled, Uploader& uploader) {
     const std::uint64_t faces = surface.faceOffsets.size() - 1;
     // Padded: read and written as vec4. One element more, after the faces': zero, cleared by
     // every frame, for the fixed vertex layout's unused slots.
@@ -307,6 +307,7 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& 
             surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * kVertexWords * (b - a)); },
             "surface's vertex faces");
     }
+    if (tiled && allQuads && fixedVertices && buildTileNormals(*tiled, faceVerts, vertexWords, uploader)) return;
     // Otherwise the CSR table of each vertex's faces.
     const std::vector<CsrChunk> vertexChunks =
         fixedVertices ? std::vector<CsrChunk>{} : splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
@@ -365,6 +366,84 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, Uploader& 
         vertexStage.dispatches.push_back(csrDispatch(c, vertexOffsets, vertexFaces, faceNormals, normals));
     normalStages.push_back(std::move(faceStage));
     normalStages.push_back(std::move(vertexStage));
+}
+
+// The tiled form's normals split as CpuEvaluator splits them (tileNormalSets): the tiles' inner
+// points by implicit addressing (tile_normals.comp), the faces that touch the other points and
+// those points listed (face_normals.comp and vertex_normals.comp with PSUB_SPEC_LISTED, the
+// fixed layouts: `corners` 4 per face, `vertexWords` 8 per vertex). Only where the tile pass is
+// worth it (the tiles' inner points are most points) and the positions, face normals, normals,
+// corners, words and border list each fit one binding; false, with nothing built, otherwise.
+bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buffer& corners, const Buffer& vertexWords,
+                                             Uploader& uploader) {
+    const VertexBuffer& positions = refinedBuffer();
+    if (positions.windows > 1 || faceNormals.windows > 1 || normals.windows > 1 || !fits(corners.size) ||
+        !fits(vertexWords.size) || !fits(4 * std::uint64_t(tiled.border.size())))
+        return false;
+    const TileNormalSets sets = tileNormalSets(tiled);
+    if (!sets.worthIt) return false;
+    std::vector<std::uint32_t> faces = sets.restFaces;  // every face that touches a listed vertex
+    faces.insert(faces.end(), sets.ringFaces.begin(), sets.ringFaces.end());
+    std::sort(faces.begin(), faces.end());
+    // Runs of PSUB_NORMAL_RUN inner points along each row of each tile (config.h).
+    std::vector<std::uint32_t> runs;
+    for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
+        const std::uint32_t L = tiled.lattice(k);
+        for (std::uint32_t y = 1; y < L; ++y)
+            for (std::uint32_t x = 1; x < L; x += PSUB_NORMAL_RUN)
+                runs.insert(runs.end(), {tiled.output[k], L | y << 16, std::uint32_t(tiled.borderBegin[k]), x});
+    }
+    const Buffer border = uploader.upload(tiled.border, tables);
+    const Buffer runTable = uploader.upload(runs, tables);
+    const Buffer faceList = uploader.upload(faces, tables);
+    const Buffer vertexList = uploader.upload(sets.restVertices, tables);
+
+    // Rows [0, count) of a list or run table of `bytes` per row, in dispatches whose window of it fits.
+    const auto chunks = [&](std::uint64_t count, std::uint64_t bytes, const char* what) {
+        return split(count, [&](std::uint64_t a, std::uint64_t b) { return fits(bytes * (b - a)); }, what);
+    };
+    Stage runStage;
+    runStage.kernel = Kernel::TileNormals;
+    runStage.specialization = {3, positions.stride, normals.stride, false, false};
+    runStage.written = &normals;
+    for (const auto& [a, b] : chunks(runs.size() / 4, 16, "tile normal runs")) {
+        Dispatch d = dispatch(b - a);
+        d.source = &positions;
+        d.destination = &normals;
+        d.tables[0] = window(runTable, 16, a, b);
+        d.tables[1] = d.tables[2] = window(border, 4, 0, tiled.border.size());
+        d.texelFormats[0] = VK_FORMAT_R32G32B32A32_UINT;
+        d.push.tableBase = std::uint32_t(a - d.tables[0].firstElement);
+        runStage.dispatches.push_back(d);
+    }
+    // The listed rows of a normals kernel over the whole `entries` table (4 or 8 words a row).
+    const auto listed = [&](Kernel kernel, const std::vector<std::uint32_t>& list, const Buffer& listBuffer,
+                            const Buffer& entries, std::uint32_t words, const VertexBuffer& from, const VertexBuffer& to) {
+        Stage stage;
+        stage.kernel = kernel;
+        stage.specialization = {3, from.stride, to.stride, false, false};
+        stage.specialization.listed = true;
+        stage.written = &to;
+        for (const auto& [a, b] : chunks(list.size(), 4, "listed normals")) {
+            Dispatch d = dispatch(b - a);
+            d.source = &from;
+            d.destination = &to;
+            d.tables[0] = window(listBuffer, 4, a, b);
+            d.tables[1] = d.tables[2] = window(entries, 4, 0, entries.size / 4);
+            d.texelFormats[1] = d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+            d.rowN = words;
+            d.push.rowBase = std::uint32_t(a - d.tables[0].firstElement);
+            d.push.groupBase = std::uint32_t(faceNormals.elements - 1);  // vertex normals: the zero element
+            d.push.groupCount = words / 4;
+            stage.dispatches.push_back(d);
+        }
+        return stage;
+    };
+    normalStages.push_back(listed(Kernel::FaceNormals, faces, faceList, corners, 4, positions, faceNormals));
+    normalStages.push_back(listed(Kernel::VertexNormals, sets.restVertices, vertexList, vertexWords, 8, faceNormals, normals));
+    normalStages.push_back(std::move(runStage));
+    tileNormals = true;
+    return true;
 }
 
 }  // namespace psub

@@ -49,6 +49,17 @@ struct TileNormals {
     const std::uint32_t* ringFaces = nullptr;
 };
 
+// How the tiled form's normals split between the tile pass and the plain passes: the vertices
+// whose normals the tile pass does not compute (tiles' border points, the fallback's), the
+// faces that touch them that no tile's ring holds (both ascending), each tile's ring faces
+// (TileNormals) from ringBegin[k], and whether the tile pass is worth it (the tiles' inner
+// points are most points: listed vertices cost more each than the plain pass's).
+struct TileNormalSets {
+    std::vector<std::uint32_t> restVertices, restFaces, ringFaces, ringBegin;
+    bool worthIt = false;
+};
+TileNormalSets tileNormalSets(const TiledTable& tiled);
+
 // Tile k of a tiled table (psub/tiled.h): `base` holds level B's vertices (`width` packed
 // values each), `refined` the finest level in drawing order; writes the points the tile owns
 // and, with `normals.normals`, the normals above. `scratch`: tileScratchSize values. With
@@ -91,7 +102,7 @@ public:
     std::uint32_t width() const { return width_; }
     int threads() const { return threads_; }
     // The tiled form computes most normals in its tile pass (evaluate with normals, below).
-    bool normalsInTilePass() const { return tileNormals_; }
+    bool normalsInTilePass() const { return tileNormals_.worthIt; }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
@@ -119,7 +130,6 @@ private:
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
-    void findTileNormalSets();                   // the tiled form's rest and ring lists
     void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
 
     const PerLevelTable& perLevel_;
@@ -134,11 +144,7 @@ private:
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f
     const TiledTable* tiled_ = nullptr;
     std::vector<T> tileScratch_;  // per thread: tileScratchSize values
-    // Tiled form: the vertices whose normals the tile pass does not compute (tiles' border
-    // points, the fallback's) and the faces that touch them that no tile's ring holds,
-    // ascending; each tile's ring faces (TileNormals), from ringBegin_[k].
-    std::vector<std::uint32_t> restVertices_, restFaces_, ringFaces_, ringBegin_;
-    bool tileNormals_ = false;  // normals in the tile pass: the tiles' inner points are most points
+    TileNormalSets tileNormals_;  // tiled form: normals in the tile pass, where worthIt
 };
 
 // Refines a face-varying channel (psub/tables.h) on the calling thread: `control` holds

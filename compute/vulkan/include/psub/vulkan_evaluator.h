@@ -132,6 +132,11 @@ public:
 
     GpuFrameTimes lastFrameTimes() const;
     HostFrameTimes lastHostTimes() const;
+    // The tiled form's normals split as CpuEvaluator's (normalsInTilePass): its tiles' inner
+    // points' from their lattices by implicit addressing (shaders/tile_normals.comp), the same
+    // bits as the CPU tile pass's; the other points' through listed faces and vertices. False
+    // for the other forms, and where the CPU would not split or a buffer needs windows.
+    bool normalsInTilePass() const;
     // Dispatches in a frame's command buffer: stencils only, and with normals.
     std::size_t dispatchCount(bool withNormals = false) const;
     // Bytes of device buffers held (tables, levels, normals, staging).

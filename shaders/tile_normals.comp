@@ -1,0 +1,66 @@
+#version 450
+// shaders/tile_normals.comp: the tiled form's unit normals of its tiles' inner points, read
+// from the refined positions (drawing order) by implicit addressing: a tile's inner point
+// (x, y), 0 < x, y < L, sits at its first inner position + (y - 1)(L - 1) + x - 1, and its
+// border points come from the tiled table's border list (config.h, "tile_normals.comp"). One
+// invocation takes a run of PSUB_NORMAL_RUN points of a lattice row: it reads the 3 rows of
+// run + 2 points around them once, forms the quads' normals between them and gives each point
+// the sum of its four, in the CPU tile pass's order and operations (compute/tiled_kernels.cpp),
+// so the same bits. The border points and the fallback's are the listed normal passes'.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#include "common.glsl"
+
+layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Runs { uvec4 runs[]; };
+layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Border { uint border[]; };
+
+const uint kRun = PSUB_NORMAL_RUN, kRead = kRun + 2u;
+
+uvec4 runAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)) : runs[i]; }
+uint borderAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : border[i]; }
+
+// The drawing position of lattice point (x, y) of a tile (inner points from `first`, border
+// entries from `ring`: row 0, then the first and last point of each row between, then row L).
+// Selects, and one fetch under a branch that lavapipe skips where no lane of the SIMD group is
+// on the border (a branch per case, each with its fetch: 11.4 against 9.1 ms at 1M points).
+uint latticePoint(uint x, uint y, uint L, uint first, uint ring) {
+    uint point = first + (y - 1u) * (L - 1u) + x - 1u;
+    if (x == 0u || y == 0u || x == L || y == L) {
+        const uint entry = y == 0u ? x : y == L ? 3u * L - 1u + x : L + 2u * y - (x == 0u ? 1u : 0u);
+        point = borderAt(ring + entry);
+    }
+    return point;
+}
+
+// Quad (x, y)-(x + 1, y + 1)'s normal: (p(x+1, y+1) - p(x, y)) x (p(x, y+1) - p(x+1, y)).
+vec3 quadNormal(vec3 p00, vec3 p10, vec3 p01, vec3 p11) {
+    precise vec3 a = p11 - p00, b = p01 - p10;
+    precise vec3 n = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+    return n;
+}
+
+void main() {
+    const uint row = rowIndex();
+    if (row >= pc.rowCount) return;
+    const uvec4 run = runAt(pc.tableBase + row);
+    const uint first = run.x, L = run.y & 0xffffu, y = run.y >> 16, ring = run.z, x0 = run.w;
+    // Points (x0 - 1 + i, y - 1 + r), i < kRead, r < 3 (past the lattice's side: its last point).
+    vec3 p[3u * kRead];
+    [[unroll]] for (uint r = 0u; r < 3u; ++r)
+        [[unroll]] for (uint i = 0u; i < kRead; ++i)
+            p[r * kRead + i] = readElement(latticePoint(min(x0 + i - 1u, L), y + r - 1u, L, first, ring)).xyz;
+    // Quads (x0 - 1 + i, y - 1 + r), i <= kRun, r < 2.
+    vec3 q[2u * (kRun + 1u)];
+    [[unroll]] for (uint r = 0u; r < 2u; ++r)
+        [[unroll]] for (uint i = 0u; i <= kRun; ++i) {
+            const uint a = r * kRead + i, b = a + kRead;
+            q[r * (kRun + 1u) + i] = quadNormal(p[a], p[a + 1u], p[b], p[b + 1u]);
+        }
+    [[unroll]] for (uint j = 0u; j < kRun; ++j)
+        if (x0 + j < L) {
+            precise vec3 s = (q[j] + q[j + 1u]) + (q[kRun + 1u + j] + q[kRun + 2u + j]);
+            precise float size = sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
+            precise float scale = size > 0.0 ? 1.0 / size : 0.0;
+            writeElement(first + (y - 1u) * (L - 1u) + x0 + j - 1u, vec4(s * scale, 0.0));
+        }
+}
