@@ -73,9 +73,17 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
     }
     grid.resize(std::size_t(g) * g);
     cells.clear();
+    if (marks.seen.size() < w.faces.vertexCount || ++marks.round == 0) {
+        marks.seen.assign(w.faces.vertexCount, 0);
+        marks.round = 1;
+    }
+    // Distinct as it goes: a block larger than the regular region it wraps around (a torus)
+    // fails at its first repeated vertex, not after the whole grid.
     for (std::uint32_t y = 0; y < g; ++y) {
         Index u = v, ux = hx;
         for (std::uint32_t x = 0; x < g; ++x) {
+            if (marks.seen[u] == marks.round) return false;
+            marks.seen[u] = marks.round;
             grid[std::size_t(y) * g + x] = u;
             if (x >= halo && x < halo + side && y >= halo && y < halo + side) {
                 cells.push_back(w.c.faceOf[ux]);
@@ -91,14 +99,6 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
         v = w.head(up);
         if (!w.regular(v)) return false;
         hx = w.rot(w.c.twin[up]);
-    }
-    if (marks.seen.size() < w.faces.vertexCount || ++marks.round == 0) {
-        marks.seen.assign(w.faces.vertexCount, 0);
-        marks.round = 1;
-    }
-    for (Index u : grid) {
-        if (marks.seen[u] == marks.round) return false;
-        marks.seen[u] = marks.round;
     }
     return true;
 }
@@ -175,7 +175,7 @@ void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::
 // a fixed cost per tile; a finest point no tile has (the per-level rows of every level): a
 // few values. Both constants measured on the 2-core EPYC VM of bench/README.md ("Session 9").
 constexpr double kTileFixedCost = 750, kFallbackPointCost = 6;
-// The largest level B on which chooseSides tries every side (up to 0.06 s more there).
+// The largest level B on which chooseSides tries every side (about 0.07 s more there).
 constexpr Index kEverySideFaces = 1 << 13;
 
 double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
