@@ -119,10 +119,12 @@
     uint borderFirst;
 
 // tile_normals.comp: the tiled form's normals of tiles' inner points, from the refined
-// positions by implicit addressing. One invocation per run of at most PSUB_NORMAL_RUN inner
-// points of one lattice row; a run record (uvec4 in TABLE_A): x = the tile's first inner point's
-// drawing position, y = L | row << 16, z = the tile's first border entry in the TABLE_B window
-// (the tiled table's border positions), w = the run's first x (from 1).
+// positions by implicit addressing. One invocation per run of at most PSUB_NORMAL_RUN x
+// PSUB_NORMAL_ROWS inner points of a tile; a run record (uvec4 in TABLE_A): x = the tile's first
+// inner point's drawing position, y = L | y0 << 16 (the run's first row, from 1), z = the tile's
+// first border entry in the TABLE_B window (the tiled table's border positions), w = the run's
+// first x (from 1).
 #define PSUB_NORMAL_RUN 8
+#define PSUB_NORMAL_ROWS 4
 
 #endif

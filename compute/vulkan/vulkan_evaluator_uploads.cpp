@@ -389,7 +389,7 @@ bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buff
     std::vector<std::uint32_t> runs;
     for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
         const std::uint32_t L = tiled.lattice(k);
-        for (std::uint32_t y = 1; y < L; ++y)
+        for (std::uint32_t y = 1; y < L; y += PSUB_NORMAL_ROWS)
             for (std::uint32_t x = 1; x < L; x += PSUB_NORMAL_RUN)
                 runs.insert(runs.end(), {tiled.output[k], L | y << 16, std::uint32_t(tiled.borderBegin[k]), x});
     }
