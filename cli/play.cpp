@@ -23,6 +23,7 @@
 #endif
 
 #include <CLI/CLI.hpp>
+#include <omp.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -200,6 +201,7 @@ struct Playback {
     TableForm form = TableForm::PerLevel;  // the evaluator's; Tiled writes drawing order
     std::string formReason;                // why auto chose it, for the summary
     std::vector<float> canonical;          // the tiled form's output in canonical order (--verify)
+    int hostThreads = omp_get_max_threads();  // OpenMP threads of the CPU-side stages
 
     bool rendering() const { return !o.renderDir.empty(); }
 
@@ -359,6 +361,14 @@ int prepare(Playback& p) {
         try {
             p.context = std::make_unique<VulkanContext>();
             VulkanContext* context = o.backend == Backend::Vulkan ? p.context.get() : nullptr;
+            // A device on the CPU's cores (lavapipe) evaluates on them: the CPU-side stages then
+            // run on one thread, since OpenMP's workers spin for a while after each parallel
+            // region (the deformers') on the cores the device's threads need (torus 256 x 256
+            // at 4 steps: evaluate 16.5-18 -> 11-12 ms, 34-35 -> 50-52 fps).
+            if (context && context->cpuDevice()) {
+                p.hostThreads = 1;
+                omp_set_num_threads(1);
+            }
             chooseForm(p, context);
             if (!p.evaluator && context) p.evaluator = makeEvaluator(o.backend, tablesOf(r), p.form, context);
         } catch (const VulkanError& e) {
@@ -467,7 +477,7 @@ void report(const Playback& p, const Timings& t) {
         Json json = {{"input", o.input}, {"animation", p.animated.name}, {"levels", o.levels},
                      {"refined_faces", faces}, {"refined_vertices", p.refinement.perLevel.refinedCount()},
                      {"frames", t.frames.size()}, {"fps", framesPerSecond(t)}, {"backend", backend},
-                     {"device", p.device}, {"form", formName(p)},
+                     {"device", p.device}, {"form", formName(p)}, {"host_threads", p.hostThreads},
                      {"render", p.rendering() ? Json{{"width", o.width}, {"height", o.height}} : Json(nullptr)},
                      {"stages", stagesJson(t)}, {"verified_frames", p.verifier ? p.verifier->frames : 0},
                      {"max_relative_error", p.verifier ? p.verifier->maxError : 0.0}};
@@ -479,6 +489,9 @@ void report(const Playback& p, const Timings& t) {
                 p.animated.name.c_str(), o.levels, o.levels == 1 ? "" : "s", p.animated.mesh.faces.vertexCount,
                 (unsigned long long)faces, p.refinement.perLevel.refinedCount(), backend, p.device.c_str());
     std::printf("Table form: %s (%s)\n", formName(p), p.formReason.c_str());
+    if (o.backend == Backend::Vulkan)
+        std::printf("CPU-side stages on %d thread%s%s\n", p.hostThreads, p.hostThreads == 1 ? "" : "s",
+                    p.hostThreads == 1 ? " (the device runs on the CPU's cores)" : "");
     const Summary frame = summarize(t.frames);
     std::printf("%zu frames: %.1f frames per second (frame time median %.3f ms, p95 %.3f, max %.3f)%s\n\n", t.frames.size(),
                 framesPerSecond(t), frame.median, frame.p95, frame.max,

@@ -115,6 +115,11 @@ TEST_P(Play, JsonHasTheStableFields) {
     for (const char* field : {"\"refined_faces\": 96", "\"frames\": 5", "\"fps\": ", "\"stages\": {"})
         EXPECT_TRUE(contains(r.out, field)) << field << " in " << r.out;
     EXPECT_TRUE(contains(r.out, GetParam() ? "\"backend\": \"vulkan\"" : "\"backend\": \"cpu\"")) << r.out;
+    EXPECT_TRUE(contains(r.out, "\"host_threads\": ")) << r.out;
+    // lavapipe evaluates on the CPU's cores: the CPU-side stages leave them to it.
+    if (GetParam() && contains(r.out, "llvmpipe")) {
+        EXPECT_TRUE(contains(r.out, "\"host_threads\": 1,")) << r.out;
+    }
     for (const char* stage : {"deform", "upload", "evaluate", "normals", "render", "readback"})
         EXPECT_TRUE(contains(r.out, "\"" + std::string(stage) + "\": {\"median_ms\": ")) << stage;
     EXPECT_TRUE(contains(r.out, "\"p95_ms\": ") && contains(r.out, "\"max_ms\": "));

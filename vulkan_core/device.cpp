@@ -424,6 +424,7 @@ VulkanContext::VulkanContext(const VulkanDeviceHandles& adopted) : impl_(std::ma
 VulkanContext::~VulkanContext() = default;
 
 std::string VulkanContext::deviceName() const { return impl_->properties.deviceName; }
+bool VulkanContext::cpuDevice() const { return impl_->properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU; }
 bool VulkanContext::validationEnabled() const { return impl_->validation; }
 std::uint64_t VulkanContext::validationMessageCount() const { return impl_->messages.load(); }
 std::string VulkanContext::lastValidationMessage() const {

@@ -67,6 +67,8 @@ public:
     VulkanContext& operator=(const VulkanContext&) = delete;
 
     std::string deviceName() const;
+    // The device runs on this machine's CPU cores (lavapipe): host threads compete with it.
+    bool cpuDevice() const;
     bool validationEnabled() const;
     // Validation-layer messages of warning or error severity since the context was created.
     std::uint64_t validationMessageCount() const;
