@@ -385,7 +385,7 @@ bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buff
     std::vector<std::uint32_t> faces = sets.restFaces;  // every face that touches a listed vertex
     faces.insert(faces.end(), sets.ringFaces.begin(), sets.ringFaces.end());
     std::sort(faces.begin(), faces.end());
-    // Runs of PSUB_NORMAL_RUN inner points along each row of each tile (config.h).
+    // Runs of PSUB_NORMAL_RUN x PSUB_NORMAL_ROWS inner points of each tile (config.h).
     std::vector<std::uint32_t> runs;
     for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
         const std::uint32_t L = tiled.lattice(k);

@@ -135,7 +135,8 @@ public:
     // The tiled form's normals split as CpuEvaluator's (normalsInTilePass): its tiles' inner
     // points' from their lattices by implicit addressing (shaders/tile_normals.comp), the same
     // bits as the CPU tile pass's; the other points' through listed faces and vertices. False
-    // for the other forms, and where the CPU would not split or a buffer needs windows.
+    // for the other forms, and where the CPU would not split, a face is no quad, a vertex is in
+    // more than 8 faces or a buffer needs more than one binding window.
     bool normalsInTilePass() const;
     // Dispatches in a frame's command buffer: stencils only, and with normals.
     std::size_t dispatchCount(bool withNormals = false) const;
