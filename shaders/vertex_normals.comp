@@ -8,18 +8,21 @@
 
 layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Offsets { uint offsets[]; };
 layout(std430, binding = PSUB_BINDING_TABLE_B) readonly buffer Faces { uint faces[]; };
+layout(std430, binding = PSUB_BINDING_TABLE_C) readonly buffer Vertices { uint vertices[]; };
 
 uint offsetAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)).x : offsets[i]; }
 uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : faces[i]; }
+uint vertexAt(uint i) { return kTexels ? texelFetch(tableTexelsC, int(i)).x : vertices[i]; }
 
 // PSUB_SPEC_ROW_N = 8: every vertex is in at most 8 faces; vertex row's 8 words (its faces in
 // table order, then pc.groupBase: an element of the input that holds zero) sit at 8 row from
 // pc.tableBase (no offsets; pc.groupCount = 2 uvec4s). The first four are added unconditionally (adding +0 changes no
 // sum), the next four in a loop that lavapipe skips unless a lane of the SIMD group needs it.
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kWords = 0xffffffffu;
-// PSUB_SPEC_LISTED (with kWords = 8): row r is vertex offsets[pc.rowBase + r] (TABLE_A), its
-// words at 8 vertex from pc.tableBase, written at its own
-// element (the tiled form's vertices that its tile normals pass leaves).
+// PSUB_SPEC_LISTED: with kWords = 8, row r is vertex offsets[pc.rowBase + r] (TABLE_A), its
+// words at 8 vertex from pc.tableBase (the tiled form's vertices that its tile normals pass
+// leaves); with CSR rows, row r's sum is written at vertex vertices[pc.rowBase + r] (TABLE_C:
+// the vertices in more faces than the fixed layout holds).
 layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
 uvec4 vertexWords(uint i) {
@@ -31,7 +34,7 @@ void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
     precise vec3 n = vec3(0.0);
-    const uint vertex = kListed && kWords == 8u ? offsetAt(pc.rowBase + row) : pc.rowBase + row;
+    const uint vertex = !kListed ? pc.rowBase + row : kWords == 8u ? offsetAt(pc.rowBase + row) : vertexAt(pc.rowBase + row);
     if (kWords == 8u) {
         const uint base = (pc.tableBase + 8u * (kListed ? vertex : row)) / 4u;
         const uvec4 q = vertexWords(base);

@@ -48,9 +48,11 @@ void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector
             vkCmdPushConstants(command, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants), &d.push);
             vkCmdDispatch(command, d.groupsX, d.groupsY, 1);
         }
+        // Later stages read what this one wrote, or (the heavy vertices' normals) write it again.
         bufferBarrier(command, stage.written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                          VK_ACCESS_HOST_READ_BIT);
     }
 }
 

@@ -158,6 +158,7 @@ struct VulkanEvaluator::Impl {
     void buildFactorized(const FactorizedTable& table, Uploader& uploader);
     void buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader);  // after buildPerLevel(table.rows)
     void buildNormals(const SurfaceTable& surface, const TiledTable* tiled, Uploader& uploader);  // tiled: its split
+    Stage heavyVertexStage(const SurfaceTable& surface, const std::vector<std::uint32_t>& heavy, Uploader& uploader);
     bool buildTileNormals(const TiledTable& tiled, const Buffer& corners, const Buffer& vertexWords, Uploader& uploader);
     void writeDescriptorSets();
 

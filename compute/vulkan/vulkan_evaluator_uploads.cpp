@@ -282,14 +282,17 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
     const VertexBuffer& positions = refinedBuffer();
     // Two fixed layouts that save the kernels their offset loads (one uvec4 fetch per 4 words):
-    // all faces quads (corners of face f at 4 f), and every vertex in at most 8 faces (vertex
-    // v's 8 words at 8 v: its faces in table order, then the zero element's number).
+    // all faces quads (corners of face f at 4 f), and vertices in at most 8 faces (vertex v's 8
+    // words at 8 v: its faces in table order, then the zero element's number). A few vertices
+    // in more faces (`heavy`: the cow's 38 of 1.1M at 7 steps, valences up to 14) do not stop
+    // the fixed layout: their sums are overwritten after it by their own CSR rows (listed).
     bool allQuads = faces > 0;
     for (std::uint64_t f = 0; f < faces && allQuads; ++f) allQuads = surface.faceOffsets[f + 1] - surface.faceOffsets[f] == 4;
     constexpr std::uint32_t kVertexWords = 8;
-    bool fixedVertices = surface.vertexCount > 0;
-    for (std::uint32_t v = 0; v < surface.vertexCount && fixedVertices; ++v)
-        fixedVertices = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] <= kVertexWords;
+    std::vector<std::uint32_t> heavy;
+    for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
+        if (surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] > kVertexWords) heavy.push_back(v);
+    const bool fixedVertices = surface.vertexCount > 0 && heavy.size() <= surface.vertexCount / 64;
     Buffer vertexWords;
     std::vector<std::pair<std::uint64_t, std::uint64_t>> vertexRows;
     if (fixedVertices) {
@@ -297,7 +300,8 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
             std::size_t(surface.vertexCount) * kVertexWords,
             [&](std::uint32_t* words) {
                 for (std::uint32_t v = 0; v < surface.vertexCount; ++v, words += kVertexWords) {
-                    const std::uint32_t begin = surface.vertexOffsets[v], end = surface.vertexOffsets[v + 1];
+                    const std::uint32_t begin = surface.vertexOffsets[v];
+                    const std::uint32_t end = std::min(surface.vertexOffsets[v + 1], begin + kVertexWords);
                     std::copy(surface.vertexFaces.begin() + begin, surface.vertexFaces.begin() + end, words);
                     std::fill(words + (end - begin), words + kVertexWords, std::uint32_t(faces));
                 }
@@ -307,7 +311,8 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
             surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * kVertexWords * (b - a)); },
             "surface's vertex faces");
     }
-    if (tiled && allQuads && fixedVertices && buildTileNormals(*tiled, faceVerts, vertexWords, uploader)) return;
+    if (tiled && allQuads && fixedVertices && heavy.empty() && buildTileNormals(*tiled, faceVerts, vertexWords, uploader))
+        return;
     // Otherwise the CSR table of each vertex's faces.
     const std::vector<CsrChunk> vertexChunks =
         fixedVertices ? std::vector<CsrChunk>{} : splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
@@ -366,6 +371,43 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
         vertexStage.dispatches.push_back(csrDispatch(c, vertexOffsets, vertexFaces, faceNormals, normals));
     normalStages.push_back(std::move(faceStage));
     normalStages.push_back(std::move(vertexStage));
+    if (fixedVertices && !heavy.empty()) normalStages.push_back(heavyVertexStage(surface, heavy, uploader));
+}
+
+// The vertex normals of the vertices in more faces than the fixed layout holds, after it: CSR
+// rows of only those vertices (TABLE_A offsets, TABLE_B faces), row r written at vertex
+// heavy[r] (TABLE_C; vertex_normals.comp with PSUB_SPEC_LISTED).
+Stage VulkanEvaluator::Impl::heavyVertexStage(const SurfaceTable& surface, const std::vector<std::uint32_t>& heavy,
+                                              Uploader& uploader) {
+    std::vector<std::uint64_t> offsets{0};
+    std::vector<std::uint32_t> heavyFaces, relative;
+    for (std::uint32_t v : heavy) {
+        heavyFaces.insert(heavyFaces.end(), surface.vertexFaces.begin() + surface.vertexOffsets[v],
+                          surface.vertexFaces.begin() + surface.vertexOffsets[v + 1]);
+        offsets.push_back(heavyFaces.size());
+    }
+    const std::vector<CsrChunk> chunks = splitCsr(offsets, relative, "surface's vertex faces");
+    const Buffer offsetTable = uploader.upload(relative, tables), faceTable = uploader.upload(heavyFaces, tables);
+    const Buffer ids = uploader.upload(heavy, tables);
+    Stage stage;
+    stage.kernel = Kernel::VertexNormals;
+    stage.specialization = {3, faceNormals.stride, normals.stride, faceNormals.windows > 1, normals.windows > 1};
+    stage.specialization.listed = true;
+    stage.written = &normals;
+    for (const CsrChunk& c : chunks) {
+        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+        d.source = &faceNormals;
+        d.destination = &normals;
+        d.tables[0] = window(offsetTable, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+        d.tables[1] = window(faceTable, 4, c.entryBegin, c.entryEnd);
+        d.tables[2] = window(ids, 4, c.rowBegin, c.rowEnd);
+        d.push.rowBase = std::uint32_t(c.rowBegin - d.tables[2].firstElement);
+        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+        d.push.sourceWindowSize = faceNormals.windowSize;
+        d.push.destinationWindowSize = normals.windowSize;
+        stage.dispatches.push_back(d);
+    }
+    return stage;
 }
 
 // The tiled form's normals split as CpuEvaluator splits them (tileNormalSets): the tiles' inner
