@@ -28,6 +28,12 @@ double peakGiB() {
 int main(int argc, char** argv) {
     const psub::Index n = argc > 1 ? psub::Index(psub::bench::parseArgument(argv[1], "N", 3, 9999)) : 512;
     const double target = argc > 2 ? psub::bench::parseArgument(argv[2], "TARGET_FACES", 1, 1e12, false) : 50e6;
+    const std::string form = argc > 3 ? argv[3] : "per-level";
+    if (form != "per-level" && form != "tiled") {
+        std::fprintf(stderr, "psub_large_mesh: the form is per-level or tiled, not %s\n", form.c_str());
+        return 2;
+    }
+    const bool tiled = form == "tiled";
     using Clock = std::chrono::steady_clock;
     const psub::Mesh mesh = psub::bench::makeTorus(int(n));
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
@@ -35,12 +41,6 @@ int main(int argc, char** argv) {
     while (double(n) * n * std::pow(2.0, levels) < target) ++levels;
     std::printf("torus %u x %u (%u faces), %d P-S levels\n", n, n, n * n, levels);
     auto start = Clock::now();
-    const std::string form = argc > 3 ? argv[3] : "per-level";
-    if (form != "per-level" && form != "tiled") {
-        std::fprintf(stderr, "psub_large_mesh: the form is per-level or tiled, not %s\n", form.c_str());
-        return 2;
-    }
-    const bool tiled = form == "tiled";
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
     options.tiled = tiled;
     options.onLevel = [](int level, double seconds) {

@@ -55,6 +55,12 @@ vec4 sourceTexel(uint window, uint i) {
     return texelFetch(sourceTexels3, int(i));
 }
 
+// The tiled form's border entry of lattice point (x, y) on a tile's outer ring (0 < x, y < L
+// excluded): row 0 whole, the two ends of each row between, row L whole (TiledTable::border).
+uint ringEntry(uint x, uint y, uint L) {
+    return y == 0u ? x : y == L ? 3u * L - 1u + x : L + 2u * y - 1u + (x == L ? 1u : 0u);
+}
+
 // This invocation's row within the dispatch (workgroups numbered x first, then y).
 uint rowIndex() {
     return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * PSUB_WORKGROUP_SIZE +

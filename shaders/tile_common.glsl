@@ -99,9 +99,8 @@ void emit(uint x, uint y, vec4 value) {
     uint at;
     if (X > 0u && X < L && Y > 0u && Y < L) {
         at = outputBegin + (Y - 1u) * (L - 1u) + X - 1u;
-    } else {  // border entries: row 0 whole, the two ends of each row between, row L whole
-        const uint e = Y == 0u ? X : Y == L ? 3u * L - 1u + X : L + 2u * Y - 1u + (X == L ? 1u : 0u);
-        at = borderAt(borderFirst + e);
+    } else {
+        at = borderAt(borderFirst + ringEntry(X, Y, L));
         if (at < outputBegin || at >= outputEnd) return;
     }
     writeValues(at, firstValue, value);

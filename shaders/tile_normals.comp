@@ -21,15 +21,12 @@ uvec4 runAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)) : runs[i
 uint borderAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : border[i]; }
 
 // The drawing position of lattice point (x, y) of a tile (inner points from `first`, border
-// entries from `ring`: row 0, then the first and last point of each row between, then row L).
-// Selects, and one fetch under a branch that lavapipe skips where no lane of the SIMD group is
-// on the border (a branch per case, each with its fetch: 11.4 against 9.1 ms at 1M points).
+// entries from `ring`): one fetch under one branch (a branch per case, each with its fetch,
+// took 11.4 against 9.1 ms at 1M points on lavapipe, which runs a branch's fetch for the whole
+// SIMD group whenever one lane takes it).
 uint latticePoint(uint x, uint y, uint L, uint first, uint ring) {
     uint point = first + (y - 1u) * (L - 1u) + x - 1u;
-    if (x == 0u || y == 0u || x == L || y == L) {
-        const uint entry = y == 0u ? x : y == L ? 3u * L - 1u + x : L + 2u * y - (x == 0u ? 1u : 0u);
-        point = borderAt(ring + entry);
-    }
+    if (x == 0u || y == 0u || x == L || y == L) point = borderAt(ring + ringEntry(x, y, L));
     return point;
 }
 
