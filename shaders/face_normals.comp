@@ -18,8 +18,8 @@ uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : cor
 // TABLE_B window (no offsets; one uvec4 fetch).
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kCorners = 0xffffffffu;
 // PSUB_SPEC_LISTED (with kCorners = 4): row r is face offsets[pc.rowBase + r] (TABLE_A), its
-// corners at 4 face from pc.tableBase, written at its own
-// element (the tiled form's faces beside its tiles' inner points).
+// corners at 4 face from pc.tableBase, written at its own element (the tiled form's faces
+// beside its tiles' inner points).
 layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
 vec3 quadNormal(vec3 p0, vec3 p1, vec3 p2, vec3 p3) {
@@ -37,8 +37,8 @@ void main() {
         const uint base = pc.tableBase + 4u * face;
         const uvec4 c = kTexels ? texelFetch(tableTexelsB, int(base / 4u))
                                 : uvec4(corners[base], corners[base + 1u], corners[base + 2u], corners[base + 3u]);
-        writeElement(kListed ? face : pc.rowBase + row, vec4(quadNormal(readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz,
-                                                       readElement(c.w).xyz), 0.0));
+        const vec3 n4 = quadNormal(readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz, readElement(c.w).xyz);
+        writeElement(kListed ? face : pc.rowBase + row, vec4(n4, 0.0));
         return;
     }
     const uint begin = offsetAt(pc.tableBase + row), end = offsetAt(pc.tableBase + row + 1u);

@@ -34,7 +34,9 @@ void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
     precise vec3 n = vec3(0.0);
-    const uint vertex = !kListed ? pc.rowBase + row : kWords == 8u ? offsetAt(pc.rowBase + row) : vertexAt(pc.rowBase + row);
+    const uint vertex = !kListed     ? pc.rowBase + row
+                        : kWords == 8u ? offsetAt(pc.rowBase + row)
+                                       : vertexAt(pc.rowBase + row);
     if (kWords == 8u) {
         const uint base = (pc.tableBase + 8u * (kListed ? vertex : row)) / 4u;
         const uvec4 q = vertexWords(base);
