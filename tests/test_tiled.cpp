@@ -153,6 +153,34 @@ TEST(Tiled, TileSidesFollowTheRegularRegion) {
     }
 }
 
+// A block whose grid is exactly the regular region is found: the open 14 x 14 grid's interior
+// vertices are 13 x 13, the grid of a tile of side 8 at one double step (8 + 2 halo + 1); its
+// centre is 7 face hops from the boundary, 6 from the grid's edge (the clearance check that
+// turns blocks away before walking them must let it through). Both side choices find it.
+TEST(Tiled, ABlockAsLargeAsTheRegularRegionIsFound) {
+    const Index m = 14;
+    test::Loaded grid;
+    grid.mesh.faces.vertexCount = (m + 1) * (m + 1);
+    for (Index j = 0; j <= m; ++j)
+        for (Index i = 0; i <= m; ++i)
+            grid.mesh.positions.insert(grid.mesh.positions.end(), {double(i), double(j), 0.1 * std::sin(double(i * j))});
+    for (Index j = 0; j < m; ++j)
+        for (Index i = 0; i < m; ++i)
+            grid.mesh.faces.addFace(std::vector<Index>{j * (m + 1) + i, j * (m + 1) + i + 1, (j + 1) * (m + 1) + i + 1,
+                                                       (j + 1) * (m + 1) + i});
+    grid.checked = checkMesh(grid.mesh);
+    const Hierarchy h = test::refine(grid, 2);
+    const PerLevelTable perLevel = buildPerLevelTable(h);
+    for (const TileSides sides : {TileSides::Cheapest, TileSides::Every}) {
+        const TiledTable table = buildTiledTable(h, perLevel, sides);
+        ASSERT_EQ(table.doubleSteps, 1u);
+        ASSERT_GT(table.tileCount(), 0u);
+        EXPECT_EQ(table.side[0], 8u);
+        EXPECT_LE(maxDifference(tiledCanonical<float>(table, grid.mesh.positions), refinePositions(h, grid.mesh.positions)),
+                  1e-6 * diagonal(grid.mesh.positions));
+    }
+}
+
 // Small regular regions stay with the rows: on Spot at 9 steps (t = 1) the cost model keeps
 // only tiles of at least 8 faces a side (smaller ones cost more than their points' rows),
 // where every regular block would make thousands of tiles.
