@@ -260,6 +260,36 @@ TEST(Tiled, ThreadsGiveBitIdenticalResults) {
     EXPECT_EQ(tiledCanonical<float>(table, torus.mesh.positions, 3, 1), tiledCanonical<float>(table, torus.mesh.positions, 3, 3));
 }
 
+// Tiled evaluators share each thread's scratch (the larger the tables, the larger it grows):
+// evaluators of other sizes and widths taking turns on the same threads give each the results
+// it gives alone, on 1 and 2 threads.
+TEST(Tiled, EvaluatorsTakingTurnsOnAThreadGiveTheirOwnResults) {
+    const test::Loaded small = loadTorus(16, 12), large = loadTorus(64, 48);
+    const Hierarchy hs = test::refine(small, 2), hl = test::refine(large, 6);
+    const TiledTable ts = buildTiledTable(hs, buildPerLevelTable(hs), TileSides::Every);
+    const TiledTable tl = buildTiledTable(hl, buildPerLevelTable(hl));
+    ASSERT_GT(ts.tileCount(), 0u);
+    ASSERT_GT(tl.tileCount(), 0u);
+    ASSERT_NE(ts.doubleSteps, tl.doubleSteps);
+    // Width 1 at t = 1 needs about half the scratch of width 4 at t = 3.
+    const std::vector<float> controlSmall = test::animate(small.mesh.positions, 1, 0);
+    const std::vector<float> controlLarge = test::animate(large.mesh.positions, 4, 0);
+    for (const int threads : {1, 2}) {
+        SCOPED_TRACE(threads);
+        CpuEvaluator<float> evaluatorSmall(ts, 1, threads), evaluatorLarge(tl, 4, threads);
+        std::vector<float> aloneSmall(ts.refinedCount), aloneLarge(4 * std::size_t(tl.refinedCount));
+        evaluatorSmall.evaluate(controlSmall, aloneSmall);
+        evaluatorLarge.evaluate(controlLarge, aloneLarge);
+        for (int turn = 0; turn < 2; ++turn) {
+            std::vector<float> outSmall(aloneSmall.size()), outLarge(aloneLarge.size());
+            evaluatorLarge.evaluate(controlLarge, outLarge);
+            evaluatorSmall.evaluate(controlSmall, outSmall);
+            EXPECT_EQ(outLarge, aloneLarge);
+            EXPECT_EQ(outSmall, aloneSmall);
+        }
+    }
+}
+
 // One evaluator over a changing sequence: each frame is refined from its own control points.
 TEST(Tiled, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {
     const test::Loaded torus = loadTorus(24, 16);

@@ -143,7 +143,6 @@ private:
     std::vector<T> faceNormals_;  // 4 per face, the 4th 0
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f
     const TiledTable* tiled_ = nullptr;
-    std::vector<T> tileScratch_;  // per thread: tileScratchSize values
     TileNormalSets tileNormals_;  // tiled form: normals in the tile pass, where worthIt
 };
 
