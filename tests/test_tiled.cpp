@@ -153,6 +153,28 @@ TEST(Tiled, TileSidesFollowTheRegularRegion) {
     }
 }
 
+// Every side is tried only where level B has at most 8,192 faces (kEverySideFaces): a 90 x 90
+// torus (8,100 faces at t = 2) gets tiles of 30 (three a side, nothing left), a 91 x 91 one
+// (8,281) only the listed sides, 32, 24, 16 and 12 (and their halves).
+TEST(Tiled, EverySideIsTriedOnlyOnSmallLevels) {
+    for (const Index n : {90u, 91u}) {
+        SCOPED_TRACE(n);
+        const test::Loaded torus = loadTorus(n, n);
+        const Hierarchy h = test::refine(torus, 4);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        ASSERT_EQ(table.doubleSteps, 2u);
+        ASSERT_GT(table.tileCount(), 0u);
+        const std::set<std::uint32_t> sides(table.side.begin(), table.side.end());
+        if (n == 90) {
+            EXPECT_EQ(sides, std::set<std::uint32_t>{30});
+            EXPECT_EQ(table.fallbackBegin, table.refinedCount);
+        } else {
+            for (const std::uint32_t side : sides)
+                EXPECT_TRUE(side == 32 || side == 24 || side == 16 || side == 12 || side == 8 || side == 6) << side;
+        }
+    }
+}
+
 // A block whose grid is exactly the regular region is found: the open 14 x 14 grid's interior
 // vertices are 13 x 13, the grid of a tile of side 8 at one double step (8 + 2 halo + 1); its
 // centre is 7 face hops from the boundary, 6 from the grid's edge (the clearance check that
