@@ -66,6 +66,39 @@ struct SeenMarks {
     std::uint32_t round = 0;
 };
 
+// Whether the cells on the outer ring of the side x side block whose first cell's first
+// corner has the +x half-edge hx are all free (not `covered`), its ring's vertices regular. A
+// block of the greedy cover that overlaps an earlier one, which is at least as large (sides
+// come largest first), has a covered cell on that ring: 4 side moves find it, where the walk
+// of the whole grid met it only after its halo rows.
+bool ringFree(const Walker& w, Index hx, std::uint32_t side, const std::vector<std::uint8_t>& covered) {
+    Index ux = hx;
+    const auto free = [&] { return !covered[w.c.faceOf[ux]]; };
+    // Moves keeping ux the +x half-edge of the vertex reached (false where that is irregular).
+    const auto move = [&](Index h, bool turnBack) {
+        if (!w.regular(w.head(h))) return false;
+        ux = turnBack ? w.rot3(w.c.twin[h]) : w.c.twin[h];
+        return true;
+    };
+    if (!free()) return false;
+    for (std::uint32_t x = 1; x < side; ++x) {  // the bottom row, +x
+        if (!w.regular(w.head(ux))) return false;
+        ux = w.straight(ux);
+        if (!free()) return false;
+    }
+    for (std::uint32_t y = 1; y < side; ++y) {  // the last column, +y
+        const Index up = w.rot(ux);
+        if (!w.regular(w.head(up))) return false;
+        ux = w.rot(w.c.twin[up]);
+        if (!free()) return false;
+    }
+    for (std::uint32_t x = 1; x < side; ++x)  // the top row, -x
+        if (!move(w.rot(w.rot(ux)), false) || !free()) return false;
+    for (std::uint32_t y = 2; y < side; ++y)  // the first column, -y
+        if (!move(w.rot3(ux), true) || !free()) return false;
+    return true;
+}
+
 // The g x g level-B vertices (row by row, x along face f's first edge, y along its last,
 // face f's first corner at (halo, halo)) and the side x side faces of the block, when every
 // one of those vertices is regular and distinct and no face of the block is `covered`.
@@ -76,6 +109,9 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
     Index v = w.faces.verts[w.faces.offsets[f]], hx = w.faces.offsets[f];
     if (!w.regular(v)) return false;
     if (!w.clearance.empty()) {  // first the grid's centre, (g - 1) / 2 = halo + side / 2 on each axis
+        // The centre is side / 2 face hops from v, so its clearance is at most v's + side / 2:
+        // v's must exceed the halo.
+        if (w.clearance[v] <= halo) return false;
         Index u = v, ux = hx;
         for (std::uint32_t s = 0; s < side / 2; ++s) {
             const Index up = w.rot(ux);
@@ -90,6 +126,7 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
         }
         if (w.clearance[u] <= (g - 1) / 2) return false;
     }
+    if (!ringFree(w, hx, side, covered)) return false;
     // To the grid's origin: halo steps -y, then halo steps -x.
     for (std::uint32_t s = 0; s < halo; ++s) {
         const Index down = w.rot3(hx);
