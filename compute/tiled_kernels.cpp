@@ -26,67 +26,95 @@ std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 
 // The first half of a double step of one value per vertex: the n x n grid `c` (spacing 1) ->
 // the quincunx level, qv (the V-points of c's inner (n-2)^2 vertices) and qf (the F-points of
-// its (n-1)^2 cells). Every loop runs over contiguous x, so that it vectorises.
+// its (n-1)^2 cells). Every loop runs over contiguous x, so that it vectorises; the F-point of
+// the cell whose first corner is (x, y) is made in the loop of the V-point of (x, y), whose
+// loads it reuses (the kernel is bound by its loads and stores, not its arithmetic).
 template <class T>
 [[gnu::always_inline]] inline void quincunxBody(const T* __restrict c, std::size_t n, T* __restrict qv,
                                                 T* __restrict qf) {
     const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
     const std::size_t nv = n - 2, nf = n - 1;
+    const auto cell = [&](const T* down, const T* up, std::size_t x) {
+        return quarter * ((down[x] + up[x + 1]) + (down[x + 1] + up[x]));
+    };
+    for (std::size_t x = 0; x + 1 < n; ++x) qf[x] = cell(c, c + n, x);  // row 0 of cells
     for (std::size_t y = 1; y + 1 < n; ++y) {
         const T* down = c + (y - 1) * n;
         const T* mid = c + y * n;
         const T* up = c + (y + 1) * n;
         T* out = qv + (y - 1) * nv;
-        for (std::size_t x = 1; x + 1 < n; ++x)
+        T* cells = qf + y * nf;
+        cells[0] = cell(mid, up, 0);
+        for (std::size_t x = 1; x + 1 < n; ++x) {
             out[x - 1] = quarter * mid[x] + eighth * ((down[x] + up[x]) + (mid[x - 1] + mid[x + 1])) +
                          sixteenth * ((down[x - 1] + up[x + 1]) + (down[x + 1] + up[x - 1]));
+            cells[x] = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));
+        }
     }
-    for (std::size_t y = 0; y + 1 < n; ++y) {
-        const T* down = c + y * n;
-        const T* up = c + (y + 1) * n;
-        T* out = qf + y * nf;
-        for (std::size_t x = 0; x + 1 < n; ++x) out[x] = quarter * ((down[x] + up[x + 1]) + (down[x + 1] + up[x]));
+}
+
+// Fine rows q (even) and, with `next`, q + 1 from the quincunx rows around c's row j: v0, vm,
+// v1 = V(j), V(j - 1), V(j + 1) (v_j[i - 1] = V(i, j), the V-point of c's vertex (i, j)) and
+// f0, fm, fp = F(j), F(j - 1), F(j + 1) (f_j[i] = F(i, j), the F-point of the cell (i, j)-(i+1,
+// j+1)); points 2 a and 2 a + 1 of a row have i = a + i0. Row q, on c's row j: V-points of
+// V(i, j) (even p), diamonds across x (odd p); row q + 1, between c's rows j and j + 1:
+// diamonds across y (even p), V-points of F(i, j) (odd p). Both rows in one loop, each point
+// written in place: their four kinds of points share most of their loads (the kernel is bound
+// by its loads and stores, not its arithmetic). `ivdep`: the rows written are not the rows
+// read; without it GCC does not vectorise the loops (alias checks), 2x slower.
+template <class T>
+[[gnu::always_inline]] inline void fineRows(const T* __restrict v0, const T* __restrict vm, const T* __restrict v1,
+                                            const T* __restrict f0, const T* __restrict fm, const T* __restrict fp,
+                                            std::size_t i0, std::size_t count, T* __restrict out,
+                                            T* __restrict next) {
+    const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
+    const auto vertexOfV = [&](std::size_t i) {
+        return quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
+               sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + v1[i - 1]));
+    };
+    const auto acrossX = [&](std::size_t i) { return quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i])); };
+    const auto acrossY = [&](std::size_t i) { return quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i])); };
+    const auto vertexOfF = [&](std::size_t i) {
+        return quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
+               sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
+    };
+    if (!next) {
+#pragma GCC ivdep
+        for (std::size_t a = 0; a < count; ++a) {
+            out[2 * a] = vertexOfV(a + i0);
+            out[2 * a + 1] = acrossX(a + i0);
+        }
+        out[2 * count] = vertexOfV(count + i0);
+        return;
     }
+#pragma GCC ivdep
+    for (std::size_t a = 0; a < count; ++a) {
+        out[2 * a] = vertexOfV(a + i0);
+        out[2 * a + 1] = acrossX(a + i0);
+        next[2 * a] = acrossY(a + i0);
+        next[2 * a + 1] = vertexOfF(a + i0);
+    }
+    out[2 * count] = vertexOfV(count + i0);
+    next[2 * count] = acrossY(count + i0);
 }
 
 // The second half: the fine grid of spacing 1/2 (side 2n - 9, its point (0, 0) at c's (2, 2)),
 // only its points (p, q) with p, q in [from, from + 2 count] (`from` even), written row by row
-// to `f` (rows of 2 count + 1 values). `even`, `odd`: two rows of n values, for a fine row's two
-// kinds of points before they are interleaved.
+// to `f` (rows of 2 count + 1 values), two rows at a time (fineRows). Fine point (p, q) lies at
+// c's ((p + 4) / 2, (q + 4) / 2).
 template <class T>
 [[gnu::always_inline]] inline void fineBody(const T* __restrict qv, const T* __restrict qf, std::size_t n,
-                                            std::size_t from, std::size_t count, T* __restrict f,
-                                            T* __restrict even, T* __restrict odd) {
-    const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
+                                            std::size_t from, std::size_t count, T* __restrict f) {
     const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2;
-    // Row v_j[i - 1] = V(i, j), the V-point of c's vertex (i, j); f_j[i] = F(i, j), the F-point
-    // of the cell (i, j)-(i+1, j+1). Fine point (p, q) lies at c's ((p + 4) / 2, (q + 4) / 2);
-    // entry a of a fine row's two kinds of points has i = a + i0 (p = 2 a + from or one more).
     const auto V = [&](std::size_t j) { return qv + (j - 1) * nv; };
     const auto F = [&](std::size_t j) { return qf + j * nf; };
-    for (std::size_t q = from; q <= from + 2 * count; ++q) {
+    for (std::size_t q = from; q <= from + 2 * count; q += 2) {
         const std::size_t j = q / 2 + 2;
-        if (q % 2 == 0) {  // on c's row j: V-points of V(i, j) (even p), diamonds across x (odd p)
-            const T *v0 = V(j), *vm = V(j - 1), *vp = V(j + 1), *f0 = F(j), *fm = F(j - 1);
-            for (std::size_t i = i0; i <= i0 + count; ++i)
-                even[i - i0] = quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
-                               sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + vp[i - 1]));
-            for (std::size_t i = i0; i < i0 + count; ++i)
-                odd[i - i0] = quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i]));
-        } else {  // between c's rows j and j + 1: diamonds across y (even p), V-points of F(i, j) (odd p)
-            const T *v0 = V(j), *v1 = V(j + 1), *f0 = F(j), *fm = F(j - 1), *fp = F(j + 1);
-            for (std::size_t i = i0; i <= i0 + count; ++i)
-                even[i - i0] = quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i]));
-            for (std::size_t i = i0; i < i0 + count; ++i)
-                odd[i - i0] = quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
-                              sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
-        }
         T* out = f + (q - from) * width;
-        for (std::size_t a = 0; a < count; ++a) {
-            out[2 * a] = even[a];
-            out[2 * a + 1] = odd[a];
-        }
-        out[2 * count] = even[count];
+        // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
+        const bool last = q == from + 2 * count;
+        fineRows(V(j), V(j - 1), V(j + 1), F(j), F(j - 1), last ? F(j) : F(j + 1), i0, count, out,
+                 last ? nullptr : out + width);
     }
 }
 
@@ -150,12 +178,12 @@ template <class T>
 PSUB_TILE_CLONES void quincunx(const float* c, std::size_t n, float* qv, float* qf) { quincunxBody(c, n, qv, qf); }
 PSUB_TILE_CLONES void quincunx(const double* c, std::size_t n, double* qv, double* qf) { quincunxBody(c, n, qv, qf); }
 PSUB_TILE_CLONES void fine(const float* qv, const float* qf, std::size_t n, std::size_t from, std::size_t count,
-                           float* f, float* even, float* odd) {
-    fineBody(qv, qf, n, from, count, f, even, odd);
+                           float* f) {
+    fineBody(qv, qf, n, from, count, f);
 }
 PSUB_TILE_CLONES void fine(const double* qv, const double* qf, std::size_t n, std::size_t from, std::size_t count,
-                           double* f, double* even, double* odd) {
-    fineBody(qv, qf, n, from, count, f, even, odd);
+                           double* f) {
+    fineBody(qv, qf, n, from, count, f);
 }
 PSUB_TILE_CLONES void quadNormals(const float* x, const float* y, const float* z, std::size_t side, std::size_t L,
                                   float* nx, float* ny, float* nz) {
@@ -211,12 +239,12 @@ std::uint32_t largestGrid(const TiledTable& table) {
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
-    return (4 + std::size_t(width)) * n * n + 2 * std::max<std::size_t>(width, 3) * side * side + 2 * n + 9 * side;
+    return (4 + std::size_t(width)) * n * n + 2 * std::max<std::size_t>(width, 3) * side * side + 9 * side;
 }
 
 // Scratch: a, b, qv, qf (one value's grids), the gathered grid of each value, its finest
 // lattice (L + 1)^2 per value, the inner points as packed values (then their normals), two
-// rows, two rows of quad normals and one of unit normals.
+// rows of quad normals and one of unit normals.
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   const TileNormals<T>& normals, T* scratch, T* lattice) {
@@ -226,8 +254,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     T* inputs = scratch + 4 * area;          // the gathered grid of each value
     T* finals = inputs + width * area;       // the finest lattice of each value
     T* packed = finals + width * plane;      // the inner points, `width` values each
-    T *even = packed + std::max<std::uint32_t>(width, 3) * plane, *odd = even + largest;
-    T* quads = odd + largest;                // two rows of quad normals, 3 planes of `side` each
+    T* quads = packed + std::max<std::uint32_t>(width, 3) * plane;  // two rows of quad normals, 3 planes each
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
     const std::size_t points = std::size_t(g) * g;
@@ -251,10 +278,10 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         for (std::uint32_t s = 0; s < t; ++s) {
             quincunx(from, n, qv, qf);
             if (s + 1 == t) {
-                fine(qv, qf, n, r0, L / 2, finals + c * plane, even, odd);
+                fine(qv, qf, n, r0, L / 2, finals + c * plane);
             } else {
                 T* to = s % 2 == 0 ? a : b;
-                fine(qv, qf, n, 0, (nextSize(std::uint32_t(n)) - 1) / 2, to, even, odd);
+                fine(qv, qf, n, 0, (nextSize(std::uint32_t(n)) - 1) / 2, to);
                 from = to;
             }
             n = nextSize(std::uint32_t(n));
