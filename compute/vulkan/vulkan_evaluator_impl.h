@@ -154,6 +154,10 @@ struct VulkanEvaluator::Impl {
     std::vector<CsrChunk> splitCsr(const std::vector<Offset>& offsets, std::vector<std::uint32_t>& relative,
                                    const char* what) const;
     Dispatch dispatch(std::uint64_t rows) const;
+    // The dispatch of one CSR chunk's rows (TABLE_A offsets, TABLE_B and TABLE_C entries), from
+    // `from` to `to`.
+    Dispatch csrDispatch(const CsrChunk& c, const Buffer& offsets, const Buffer& entries, const VertexBuffer& from,
+                         const VertexBuffer& to) const;
     void buildPerLevel(const PerLevelTable& table, Uploader& uploader);
     void buildFactorized(const FactorizedTable& table, Uploader& uploader);
     void buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader);  // after buildPerLevel(table.rows)

@@ -67,6 +67,21 @@ Dispatch VulkanEvaluator::Impl::dispatch(std::uint64_t rows) const {
     return d;
 }
 
+Dispatch VulkanEvaluator::Impl::csrDispatch(const CsrChunk& c, const Buffer& offsets, const Buffer& entries,
+                                            const VertexBuffer& from, const VertexBuffer& to) const {
+    Dispatch d = dispatch(c.rowEnd - c.rowBegin);
+    d.source = &from;
+    d.destination = &to;
+    d.tables[0] = window(offsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
+    d.tables[1] = window(entries, 4, c.entryBegin, c.entryEnd);
+    d.tables[2] = d.tables[1];
+    d.push.rowBase = std::uint32_t(c.rowBegin);
+    d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
+    d.push.sourceWindowSize = from.windowSize;
+    d.push.destinationWindowSize = to.windowSize;
+    return d;
+}
+
 namespace {
 
 // Row shapes (n edge neighbours, m diagonals) with a pipeline of their own, the loop counts
@@ -320,20 +335,6 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     const Buffer vertexFaces = fixedVertices ? Buffer{} : uploader.upload(surface.vertexFaces, tables);
 
     // One chunk of a CSR table (row offsets, entries) as a dispatch from `from` to `to`.
-    const auto csrDispatch = [&](const CsrChunk& c, const Buffer& offsets, const Buffer& entries,
-                                 const VertexBuffer& from, const VertexBuffer& to) {
-        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
-        d.source = &from;
-        d.destination = &to;
-        d.tables[0] = window(offsets, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
-        d.tables[1] = window(entries, 4, c.entryBegin, c.entryEnd);
-        d.tables[2] = d.tables[1];
-        d.push.rowBase = std::uint32_t(c.rowBegin);
-        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
-        d.push.sourceWindowSize = from.windowSize;
-        d.push.destinationWindowSize = to.windowSize;
-        return d;
-    };
     Stage faceStage;
     faceStage.kernel = Kernel::FaceNormals;
     faceStage.specialization = {3, positions.stride, faceNormals.stride, positions.windows > 1, faceNormals.windows > 1};
@@ -395,16 +396,9 @@ Stage VulkanEvaluator::Impl::heavyVertexStage(const SurfaceTable& surface, const
     stage.specialization.listed = true;
     stage.written = &normals;
     for (const CsrChunk& c : chunks) {
-        Dispatch d = dispatch(c.rowEnd - c.rowBegin);
-        d.source = &faceNormals;
-        d.destination = &normals;
-        d.tables[0] = window(offsetTable, 4, c.offsetsBegin, c.offsetsBegin + (c.rowEnd - c.rowBegin) + 1);
-        d.tables[1] = window(faceTable, 4, c.entryBegin, c.entryEnd);
-        d.tables[2] = window(ids, 4, c.rowBegin, c.rowEnd);
+        Dispatch d = csrDispatch(c, offsetTable, faceTable, faceNormals, normals);
+        d.tables[2] = window(ids, 4, c.rowBegin, c.rowEnd);  // row r's vertex
         d.push.rowBase = std::uint32_t(c.rowBegin - d.tables[2].firstElement);
-        d.push.tableBase = std::uint32_t(c.offsetsBegin - d.tables[0].firstElement);
-        d.push.sourceWindowSize = faceNormals.windowSize;
-        d.push.destinationWindowSize = normals.windowSize;
         stage.dispatches.push_back(d);
     }
     return stage;
