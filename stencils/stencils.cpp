@@ -380,17 +380,19 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     Level parent{mesh.faces, connectivity};
     const std::vector<char> corners = inputCorners(mesh.faces, connectivity, options.rules);
     const int steps = options.levels + (out.preprocessed ? 1 : 0);
-    // The tiled form's plan, once the first quad level exists, and its base level, kept.
+    // The tiled form's plan, once the first quad level exists, its base level B (kept, a copy)
+    // and level N - 2 (kept: the lattices are walked there; for t = 1 it is level B).
     const int firstQuadLevel = out.preprocessed && steps > 0 ? 1 : 0;
     TiledPlan plan{0, 0};
-    Level base;
+    Level base, coarse;
     const auto planTiles = [&](int k) {
         if (options.tiled && k == firstQuadLevel) {
             plan = planTiled(std::size_t(steps), out.preprocessed, parent);
             plan.sides = options.tileSides;
         }
-        if (options.tiled && k == int(plan.baseLevel)) base = parent;
+        if (options.tiled && plan.doubleSteps > 1 && k == int(plan.baseLevel)) base = parent;
     };
+    const auto keepCoarse = [&](int k) { return options.tiled && plan.doubleSteps > 0 && k == steps - 1; };
     planTiles(0);
     // The face-varying channel follows the positions level by level (docs/face-varying.md).
     const bool uv = !mesh.uv.empty() && options.boundary == Boundary::Paper;
@@ -417,20 +419,30 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules, corners);
         out.perLevelMs += ms(start);
         start = Clock::now();
-        parent = refineLevel(std::move(parent), split);  // frees the parent while the child grows
+        if (k == steps && k > firstQuadLevel) {
+            // The finest level: only its faces (the surface), no half-edges.
+            parent.faces = refineFaces(parent.faces, parent.connectivity, split);
+            parent.connectivity = {};
+        } else if (keepCoarse(k)) {
+            Level child = refineLevel(parent, split);
+            coarse = std::move(parent);
+            parent = std::move(child);
+        } else {
+            parent = refineLevel(std::move(parent), split);  // frees the parent while the child grows
+        }
         const double topologyMs = ms(start);
         out.topologyMs += topologyMs;
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
         planTiles(k);
     }
-    // The finest level's edges are not read again (the tiled form walks half-edges and vertex
-    // rings; the surface takes the faces), nor, after the tiled form, its connectivity.
-    parent.connectivity.edgeOf = {};
-    parent.connectivity.edgeHalfedge = {};
     if (options.tiled) {
         const auto start = Clock::now();
-        out.tiled = buildTiledTableFreeingConnectivity(out.perLevel, base, parent, plan);
+        const bool coarseSplits = splitsBoundary(options.boundary, steps - 1 - (out.preprocessed ? 1 : 0));
+        out.tiled = buildTiledTable(out.perLevel, plan.doubleSteps > 1 ? base : coarse, coarse, coarseSplits,
+                                    parent.faces, plan);
         out.tiledMs = ms(start);
+        base = Level{};
+        coarse = Level{};
     }
     parent.connectivity = {};
     if (uv) setFaceVaryingFaces(out.uv, uvLevel);

@@ -1,7 +1,7 @@
 // Builds the tiled table form (psub/tiled.h): finds regular blocks of level-B faces by walking
 // half-edges (their sides chosen by a cost model), maps their finest lattices to canonical
-// indices by walking the finest level, assigns drawing positions, and keeps the per-level rows
-// the fallback points need.
+// indices by walking the level two steps coarser (the finest level's topology is never needed),
+// assigns drawing positions, and keeps the per-level rows the fallback points need.
 #include "psub/stencils.h"
 #include "psub/tiled.h"
 
@@ -172,8 +172,7 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
     return true;
 }
 
-// The half-edge leaving `from` on the finest level whose straight walk of `steps` edges ends
-// at `to`, or kNone.
+// The half-edge leaving `from` whose straight walk of `steps` edges ends at `to`, or kNone.
 Index directionTo(const Walker& w, Index from, Index to, std::uint32_t steps) {
     for (Index o : w.c.outgoingOf(from)) {
         Index d = o, v = from;
@@ -190,34 +189,73 @@ Index directionTo(const Walker& w, Index from, Index to, std::uint32_t steps) {
     return kNone;
 }
 
+// How refineLevel numbers the finest level's vertices (SPEC order) in terms of the level two
+// steps coarser (N - 2): a vertex keeps its index at every level; the next level's F-points
+// follow its vertices, in face order, and the faces of level N - 1 are made one per coarse
+// edge, in edge order (two for a boundary edge that step splits).
+struct FinestNames {
+    Index coarseVertices = 0;  // vertices of level N - 2: its faces' F-points follow them on N - 1
+    Index middleVertices = 0;  // vertices of level N - 1: its faces' F-points follow them on N
+    std::vector<Index> childFace = {};  // per coarse edge, its first face on N - 1 (empty: the edge's index)
+
+    FinestNames(const Level& coarse, bool splitsBoundary) {
+        const Connectivity& c = coarse.connectivity;
+        const bool split = splitsBoundary && c.boundaryEdgeCount > 0;
+        coarseVertices = coarse.faces.vertexCount;
+        middleVertices = coarseVertices + coarse.faces.faceCount() + (split ? c.boundaryEdgeCount : 0);
+        if (!split) return;
+        childFace.resize(c.edgeCount());
+        Index face = 0;
+        for (Index e = 0; e < c.edgeCount(); ++e) {
+            childFace[e] = face;
+            face += c.twin[c.edgeHalfedge[e]] == kNoIndex ? 2 : 1;
+        }
+    }
+    // The finest point at the middle of coarse edge e (the F-point of its face on N - 1), and
+    // at the middle of coarse face f (the F-point of f on N - 1, kept on N).
+    Index edgePoint(Index e) const { return middleVertices + (childFace.empty() ? e : childFace[e]); }
+    Index facePoint(Index f) const { return coarseVertices + f; }
+};
+
 // The finest level's (L+1) x (L+1) lattice of a block (row by row, in the block's frame), or
-// false when it cannot be walked as a regular grid.
-bool walkLattice(const Walker& w, const std::vector<Index>& grid, std::uint32_t g, std::uint32_t halo,
-                 std::uint32_t steps, std::uint32_t lattice, std::vector<Index>& points) {
+// false when it cannot be walked as a regular grid. Walked on the level two steps coarser
+// (walker w), whose (L/2+1)^2 lattice points keep their index on the finest level, their
+// edges' and cells' middles named by `names`: a quarter of the finest walk's steps, on a level
+// a quarter of its size.
+bool walkLattice(const Walker& w, const FinestNames& names, const std::vector<Index>& grid, std::uint32_t g,
+                 std::uint32_t halo, std::uint32_t steps, std::uint32_t lattice, std::vector<Index>& points) {
     const Index v00 = grid[std::size_t(halo) * g + halo];
     if (!w.regular(v00)) return false;
-    const Index hx = directionTo(w, v00, grid[std::size_t(halo) * g + halo + 1], steps);
-    const Index hy = directionTo(w, v00, grid[std::size_t(halo + 1) * g + halo], steps);
+    const std::uint32_t coarseSteps = steps / 2, coarseLattice = lattice / 2, side = lattice + 1;
+    const Index hx = directionTo(w, v00, grid[std::size_t(halo) * g + halo + 1], coarseSteps);
+    const Index hy = directionTo(w, v00, grid[std::size_t(halo + 1) * g + halo], coarseSteps);
     if (hx == kNone || hy == kNone) return false;
-    const bool counterClockwise = w.rot(hx) == hy;
-    if (!counterClockwise && w.rot3(hx) != hy) return false;
-    const auto turn = [&](Index h) { return counterClockwise ? w.rot(h) : w.rot3(h); };  // +x -> +y
-    points.resize(std::size_t(lattice + 1) * (lattice + 1));
+    // walkBlock's +y is rot(+x), and refinement keeps the orientation, so the same holds here.
+    if (w.rot(hx) != hy) return false;
+    points.resize(std::size_t(side) * side);
     Index v = v00, vx = hx;
-    for (std::uint32_t y = 0; y <= lattice; ++y) {
+    for (std::uint32_t y = 0; y <= coarseLattice; ++y) {
         Index u = v, ux = vx;
-        for (std::uint32_t x = 0; x <= lattice; ++x) {
-            points[std::size_t(y) * (lattice + 1) + x] = u;
-            if (x == lattice) break;
+        Index* even = points.data() + std::size_t(2 * y) * side;
+        Index* odd = even + side;
+        for (std::uint32_t x = 0; x <= coarseLattice; ++x) {
+            even[2 * x] = u;
+            if (x < coarseLattice) even[2 * x + 1] = names.edgePoint(w.c.edgeOf[ux]);
+            if (y < coarseLattice) {
+                odd[2 * x] = names.edgePoint(w.c.edgeOf[w.rot(ux)]);
+                // The cell between +x and +y = rot(+x): the face of +x (faces turn counter-clockwise).
+                if (x < coarseLattice) odd[2 * x + 1] = names.facePoint(w.c.faceOf[ux]);
+            }
+            if (x == coarseLattice) break;
             u = w.head(ux);
             if (!w.regular(u)) return false;
             ux = w.straight(ux);
         }
-        if (y == lattice) break;
-        const Index up = turn(vx);
+        if (y == coarseLattice) break;
+        const Index up = w.rot(vx);
         v = w.head(up);
         if (!w.regular(v)) return false;
-        vx = turn(w.c.twin[up]);  // -y at v turned once is +x
+        vx = w.rot(w.c.twin[up]);  // -y at v turned once is +x
     }
     return true;
 }
@@ -347,10 +385,8 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
     return {std::uint32_t(levelCount) - 2 * t, t};
 }
 
-namespace {
-
-TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan,
-                      Connectivity* release) {
+TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& coarse, bool coarseSplits,
+                           const Faces& finest, TiledPlan plan) {
     static constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};
     if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
         throw std::invalid_argument("buildTiledTable: the plan does not fit the per-level table");
@@ -368,7 +404,10 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
     if (plan.doubleSteps > 0) {
         Walker wb{base.faces, base.connectivity};
         wb.cacheRegular();
-        const Walker wf{finest.faces, finest.connectivity};
+        // The lattices are walked on level N - 2 (for t = 1, level B itself).
+        const Walker wc{coarse.faces, coarse.connectivity};
+        const Walker& walker = &coarse == &base ? wb : wc;
+        const FinestNames names(coarse, coarseSplits);
         std::vector<Index> points;
         std::vector<std::uint32_t> sides;
         if (plan.sides == TileSides::Every)
@@ -377,7 +416,7 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
             sides = chooseSides(wb, plan.doubleSteps, table.halo);
         coverBlocks(wb, sides, table.halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>&) {
             const std::uint32_t g = side + 2 * table.halo + 1, lattice = side * steps;
-            if (!walkLattice(wf, grid, g, table.halo, steps, lattice, points)) return false;
+            if (!walkLattice(walker, names, grid, g, table.halo, steps, lattice, points)) return false;
             table.side.push_back(side);
             table.gather.insert(table.gather.end(), grid.begin(), grid.end());
             table.gatherBegin.push_back(table.gather.size());
@@ -401,7 +440,6 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
         });
     }
     table.side.shrink_to_fit();
-    if (release) *release = Connectivity{};
     table.fallbackBegin = next;
     std::vector<std::uint8_t> needed(table.refinedCount, 0);
     for (std::uint32_t v = 0; v < table.refinedCount; ++v)
@@ -437,36 +475,25 @@ TiledTable buildTiled(const PerLevelTable& perLevel, const Level& base, const Le
     // Faces over drawing positions, sorted (counting sort, stable) by their first drawn corner,
     // so that the normals' passes read positions and face normals mostly in order.
     Faces faces;
-    faces.vertexCount = finest.faces.vertexCount;
-    std::vector<std::uint32_t> firstDrawn(finest.faces.faceCount()), start(std::size_t(table.refinedCount) + 1, 0);
-    for (Index f = 0; f < finest.faces.faceCount(); ++f) {
+    faces.vertexCount = finest.vertexCount;
+    std::vector<std::uint32_t> firstDrawn(finest.faceCount()), start(std::size_t(table.refinedCount) + 1, 0);
+    for (Index f = 0; f < finest.faceCount(); ++f) {
         std::uint32_t first = kNone;
-        for (Index v : finest.faces.face(f)) first = std::min(first, drawOf[v]);
+        for (Index v : finest.face(f)) first = std::min(first, drawOf[v]);
         firstDrawn[f] = first;
         ++start[first + 1];
     }
     for (std::size_t p = 0; p < table.refinedCount; ++p) start[p + 1] += start[p];
-    std::vector<Index> order(finest.faces.faceCount());
-    for (Index f = 0; f < finest.faces.faceCount(); ++f) order[start[firstDrawn[f]]++] = f;
-    faces.verts.reserve(finest.faces.verts.size());
+    std::vector<Index> order(finest.faceCount());
+    for (Index f = 0; f < finest.faceCount(); ++f) order[start[firstDrawn[f]]++] = f;
+    faces.verts.reserve(finest.verts.size());
     faces.offsets.reserve(order.size() + 1);
     for (Index f : order) {
-        for (Index v : finest.faces.face(f)) faces.verts.push_back(drawOf[v]);
+        for (Index v : finest.face(f)) faces.verts.push_back(drawOf[v]);
         faces.offsets.push_back(Index(faces.verts.size()));
     }
     table.surface = buildSurfaceTable(std::move(faces));
     return table;
-}
-
-}  // namespace
-
-TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan) {
-    return buildTiled(perLevel, base, finest, plan, nullptr);
-}
-
-TiledTable buildTiledTableFreeingConnectivity(const PerLevelTable& perLevel, const Level& base, Level& finest,
-                                              TiledPlan plan) {
-    return buildTiled(perLevel, base, finest, plan, &finest.connectivity);
 }
 
 void setTiledFaceVaryingFaces(TiledTable& tiled, const FaceVaryingTable& channel) {
@@ -512,7 +539,9 @@ TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perL
     TiledPlan plan = planTiled(hierarchy.levels.size() - 1, hierarchy.preprocessed,
                                hierarchy.levels[hierarchy.preprocessed && hierarchy.levels.size() > 1 ? 1 : 0]);
     plan.sides = sides;
-    return buildTiledTable(perLevel, hierarchy.levels[plan.baseLevel], hierarchy.finest(), plan);
+    const std::size_t coarse = hierarchy.levels.size() >= 3 ? hierarchy.levels.size() - 3 : 0;
+    return buildTiledTable(perLevel, hierarchy.levels[plan.baseLevel], hierarchy.levels[coarse],
+                           hierarchy.splitsBoundary(coarse + 1), hierarchy.finest().faces, plan);
 }
 
 }  // namespace psub

@@ -46,13 +46,12 @@ struct TiledPlan {
 // preprocessed, else 0) would leave over a tenth of level B's faces without a tile.
 TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firstQuadLevel);
 
-// The tiled form (psub/tiled.h) of `perLevel`, whose level plan.baseLevel is `base` and whose
-// finest level is `finest` (their topology is only read here, never kept).
-TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& finest, TiledPlan plan);
-// The same, freeing finest's connectivity as soon as its lattices are walked (only its faces
-// are read after that), so that the build's peak holds no finest half-edges with its output.
-TiledTable buildTiledTableFreeingConnectivity(const PerLevelTable& perLevel, const Level& base, Level& finest,
-                                              TiledPlan plan);
+// The tiled form (psub/tiled.h) of `perLevel`, whose level plan.baseLevel is `base`, whose
+// level N - 2 is `coarse` (the same object as `base` may be; its step to level N - 1 split
+// boundary edges when `coarseSplits`) and whose finest faces are `finest`. The two levels'
+// topology is only read here, never kept; the finest level's topology is not needed.
+TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& coarse, bool coarseSplits,
+                           const Faces& finest, TiledPlan plan);
 TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel,
                            TileSides sides = TileSides::Cheapest);
 
