@@ -317,24 +317,32 @@ std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::ui
         return side > 0 && tileCost(side, t, halo) < double(side) * side * finestPerFace * kFallbackPointCost;
     };
     const auto fits = [&](std::uint32_t side) { return (side + 2 * halo) / 2 < clearance; };
-    // Each side tried is one greedy cover (a walk from every face).
+    // Each side tried is one greedy cover (a walk from every face), independent of the others:
+    // they run in parallel, the cheapest (the first of equal ones) kept.
     const bool everySide = w.faces.faceCount() <= kEverySideFaces;
+    std::vector<std::vector<std::uint32_t>> candidates;
     for (std::uint32_t first = largest; first > 0 && first >= largest * 3 / 8; --first) {
         const bool listed = first == largest || first == largest * 3 / 4 || first == largest / 2 || first == largest * 3 / 8;
         if (!(everySide || listed) || !worthwhile(first)) continue;
         std::vector<std::uint32_t> sides;
         for (std::uint32_t side = first; worthwhile(side); side /= 2)
             if (fits(side)) sides.push_back(side);
-        if (sides.empty()) continue;
-        double cost = 0, covered = 0;
-        coverBlocks(w, sides, halo, [&](std::uint32_t side, const std::vector<Index>&, const std::vector<Index>&) {
-            cost += tileCost(side, t, halo);
-            covered += double(side) * side;
-            return true;
-        });
-        cost += (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
-        if (best.empty() || cost < bestCost) best = sides, bestCost = cost;
+        if (!sides.empty()) candidates.push_back(std::move(sides));
     }
+    std::vector<double> costs(candidates.size());
+#pragma omp parallel for schedule(dynamic, 1) if (w.faces.faceCount() > 4096)
+    for (std::ptrdiff_t i = 0; i < std::ptrdiff_t(candidates.size()); ++i) {
+        double cost = 0, covered = 0;
+        coverBlocks(w, candidates[std::size_t(i)], halo,
+                    [&](std::uint32_t side, const std::vector<Index>&, const std::vector<Index>&) {
+                        cost += tileCost(side, t, halo);
+                        covered += double(side) * side;
+                        return true;
+                    });
+        costs[std::size_t(i)] = cost + (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
+    }
+    for (std::size_t i = 0; i < candidates.size(); ++i)
+        if (best.empty() || costs[i] < bestCost) best = candidates[i], bestCost = costs[i];
     return best;
 }
 
