@@ -481,24 +481,38 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
                    k + 1 == levels ? &drawOf : nullptr);
 
     // Faces over drawing positions, sorted (counting sort, stable) by their first drawn corner,
-    // so that the normals' passes read positions and face normals mostly in order.
+    // so that the normals' passes read positions and face normals mostly in order. The corners
+    // are mapped in one pass in face order (in parallel); the sort then moves each face once.
+    const Index faceCount = finest.faceCount();
+    std::vector<Index> mapped(finest.verts.size());
+    std::vector<std::uint32_t> firstDrawn(faceCount);
+#pragma omp parallel for schedule(static) if (faceCount > 65536)
+    for (std::ptrdiff_t f = 0; f < std::ptrdiff_t(faceCount); ++f) {
+        std::uint32_t first = kNone;
+        for (Index h = finest.offsets[std::size_t(f)]; h < finest.offsets[std::size_t(f) + 1]; ++h)
+            first = std::min(first, mapped[h] = drawOf[finest.verts[h]]);
+        firstDrawn[std::size_t(f)] = first;
+    }
+    // Per first drawn corner: where its faces and their corners start.
+    std::vector<Index> faceStart(std::size_t(table.refinedCount) + 1, 0), cornerStart(faceStart);
+    for (Index f = 0; f < faceCount; ++f) {
+        ++faceStart[firstDrawn[f] + 1];
+        cornerStart[firstDrawn[f] + 1] += finest.faceSize(f);
+    }
+    for (std::size_t p = 0; p < table.refinedCount; ++p) {
+        faceStart[p + 1] += faceStart[p];
+        cornerStart[p + 1] += cornerStart[p];
+    }
     Faces faces;
     faces.vertexCount = finest.vertexCount;
-    std::vector<std::uint32_t> firstDrawn(finest.faceCount()), start(std::size_t(table.refinedCount) + 1, 0);
-    for (Index f = 0; f < finest.faceCount(); ++f) {
-        std::uint32_t first = kNone;
-        for (Index v : finest.face(f)) first = std::min(first, drawOf[v]);
-        firstDrawn[f] = first;
-        ++start[first + 1];
-    }
-    for (std::size_t p = 0; p < table.refinedCount; ++p) start[p + 1] += start[p];
-    std::vector<Index> order(finest.faceCount());
-    for (Index f = 0; f < finest.faceCount(); ++f) order[start[firstDrawn[f]]++] = f;
-    faces.verts.reserve(finest.verts.size());
-    faces.offsets.reserve(order.size() + 1);
-    for (Index f : order) {
-        for (Index v : finest.face(f)) faces.verts.push_back(drawOf[v]);
-        faces.offsets.push_back(Index(faces.verts.size()));
+    faces.verts.resize(finest.verts.size());
+    faces.offsets.resize(std::size_t(faceCount) + 1);
+    for (Index f = 0; f < faceCount; ++f) {
+        const std::uint32_t key = firstDrawn[f];
+        std::copy(mapped.begin() + finest.offsets[f], mapped.begin() + finest.offsets[f + 1],
+                  faces.verts.begin() + cornerStart[key]);
+        cornerStart[key] += finest.faceSize(f);
+        faces.offsets[++faceStart[key]] = cornerStart[key];
     }
     table.surface = buildSurfaceTable(std::move(faces));
     return table;

@@ -440,19 +440,37 @@ TEST(Tiled, NormalsInTheTilePassAreTheDefinition) {
     }
 }
 
+// refine() builds the finest level's faces only and walks the lattices on level N - 2, kept
+// as it goes (level B itself at t = 1, a level of its own at t = 2 and 3): the same table as
+// from the whole hierarchy, with both boundary modes (a split boundary renumbers the faces the
+// lattices' edge middles come from) and every tile count.
 TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
-    const test::Loaded loaded = loadTorus(30, 20);
-    RefineOptions options;
-    options.levels = 5;
-    options.tiled = true;
-    const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
-    const Hierarchy h = test::refine(loaded, 5);
-    const TiledTable expected = buildTiledTable(h, buildPerLevelTable(h));
-    EXPECT_EQ(r.tiled.canonical, expected.canonical);
-    EXPECT_EQ(r.tiled.gather, expected.gather);
-    EXPECT_EQ(r.tiled.rows.indices, expected.rows.indices);
-    EXPECT_EQ(r.tiled.surface.faceVerts, expected.surface.faceVerts);
-    EXPECT_GT(r.tiled.tileCount(), 0u);
+    std::vector<std::string> models = test::manifoldModelsWithBoundary();
+    models.resize(std::min<std::size_t>(models.size(), 3));
+    models.push_back("");  // a 30 x 20 torus
+    std::size_t tiles[2][4] = {};  // [boundary][double steps]
+    for (const std::string& path : models)
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
+            for (int levels = 2; levels <= (path.empty() ? 6 : 5); ++levels) {
+                SCOPED_TRACE((path.empty() ? "torus" : path) + " levels " + std::to_string(levels) + " " + boundaryName(boundary));
+                const test::Loaded loaded = path.empty() ? loadTorus(30, 20) : test::load(path);
+                RefineOptions options;
+                options.levels = levels;
+                options.boundary = boundary;
+                options.tiled = true;
+                options.tileSides = TileSides::Every;
+                const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
+                const Hierarchy h = test::refine(loaded, levels, Preprocess::Auto, boundary);
+                const TiledTable expected = buildTiledTable(h, buildPerLevelTable(h), TileSides::Every);
+                EXPECT_EQ(r.tiled.doubleSteps, expected.doubleSteps);
+                EXPECT_EQ(r.tiled.canonical, expected.canonical);
+                EXPECT_EQ(r.tiled.gather, expected.gather);
+                EXPECT_EQ(r.tiled.rows.indices, expected.rows.indices);
+                EXPECT_EQ(r.tiled.surface.faceVerts, expected.surface.faceVerts);
+                tiles[int(boundary)][r.tiled.doubleSteps] += r.tiled.tileCount();
+            }
+    for (int boundary = 0; boundary < 2; ++boundary)
+        for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
 }
 
 TEST(Tiled, TheOtherConstructorRefusesTheTiledForm) {
