@@ -416,6 +416,13 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
         const Walker wc{coarse.faces, coarse.connectivity};
         const Walker& walker = &coarse == &base ? wb : wc;
         const FinestNames names(coarse, coarseSplits);
+        // The levels must be the table's: B and N - 2 by their vertex counts, the split flag by
+        // the count of level N - 1 it implies.
+        const StencilLevel& coarseStep = perLevel.levels[perLevel.levels.size() - 2];
+        if (base.faces.vertexCount != perLevel.levels[plan.baseLevel].sourceCount ||
+            coarse.faces.vertexCount != coarseStep.sourceCount || names.middleVertices != coarseStep.destinationCount ||
+            finest.vertexCount != table.refinedCount)
+            throw std::invalid_argument("buildTiledTable: the levels given are not the per-level table's B, N - 2 and N");
         std::vector<Index> points;
         std::vector<std::uint32_t> sides;
         if (plan.sides == TileSides::Every)

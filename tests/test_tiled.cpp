@@ -473,6 +473,39 @@ TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
 }
 
+// The levels buildTiledTable walks and names the lattices from are checked against the table:
+// level N - 1 in place of N - 2, or the wrong split flag on a boundary model (smooth boundary:
+// every step splits), is refused, not turned into a wrong table.
+TEST(Tiled, LevelsThatAreNotTheTablesAreRefused) {
+    const test::Loaded torus = loadTorus(24, 16);
+    const Hierarchy h = test::refine(torus, 4);
+    const PerLevelTable perLevel = buildPerLevelTable(h);
+    const TiledPlan plan = planTiled(h.levels.size() - 1, h.preprocessed, h.levels[0]);
+    ASSERT_EQ(plan.doubleSteps, 2u);
+    EXPECT_NO_THROW(buildTiledTable(perLevel, h.levels[plan.baseLevel], h.levels[2], false, h.finest().faces, plan));
+    EXPECT_THROW(buildTiledTable(perLevel, h.levels[plan.baseLevel], h.levels[3], false, h.finest().faces, plan),
+                 std::invalid_argument);
+    EXPECT_THROW(buildTiledTable(perLevel, h.levels[1], h.levels[2], false, h.finest().faces, plan),
+                 std::invalid_argument);
+    const std::vector<std::string> bounded = test::manifoldModelsWithBoundary();
+    ASSERT_FALSE(bounded.empty());
+    const test::Loaded open = test::load(bounded.front());
+    // Smooth splits at odd P-S steps: the step to level N - 1 is one at 2 or 3 steps.
+    for (int steps : {2, 3}) {
+        const Hierarchy s = test::refine(open, steps, Preprocess::Auto, Boundary::Smooth);
+        const bool split = s.splitsBoundary(s.levels.size() - 2);
+        if (!split) continue;
+        const PerLevelTable smooth = buildPerLevelTable(s);
+        const TiledPlan one = planTiled(s.levels.size() - 1, s.preprocessed, s.levels[s.preprocessed ? 1 : 0]);
+        ASSERT_EQ(one.doubleSteps, 1u);
+        const Level& coarse = s.levels[s.levels.size() - 3];
+        EXPECT_NO_THROW(buildTiledTable(smooth, coarse, coarse, true, s.finest().faces, one));
+        EXPECT_THROW(buildTiledTable(smooth, coarse, coarse, false, s.finest().faces, one), std::invalid_argument);
+        return;
+    }
+    FAIL() << "no step count whose step to level N - 1 splits the boundary";
+}
+
 TEST(Tiled, TheOtherConstructorRefusesTheTiledForm) {
     const PerLevelTable perLevel;
     const FactorizedTable factorized;
