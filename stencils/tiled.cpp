@@ -108,9 +108,11 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
     const std::uint32_t g = side + 2 * halo + 1;
     Index v = w.faces.verts[w.faces.offsets[f]], hx = w.faces.offsets[f];
     if (!w.regular(v)) return false;
-    if (!w.clearance.empty()) {  // first the grid's centre, (g - 1) / 2 = halo + side / 2 on each axis
-        // The centre is side / 2 face hops from v, so its clearance is at most v's + side / 2:
-        // v's must exceed the halo.
+    // First the grid's centre, (g - 1) / 2 = halo + side / 2 on each axis. It is side / 2 face
+    // hops from v, so its clearance is within side / 2 of v's: v's must exceed the halo, and
+    // where v's exceeds halo + side the centre's is large enough without walking there (the
+    // torus: its failing walks, on strips beside covered blocks, fail in the ring walk).
+    if (!w.clearance.empty() && w.clearance[v] <= halo + side) {
         if (w.clearance[v] <= halo) return false;
         Index u = v, ux = hx;
         for (std::uint32_t s = 0; s < side / 2; ++s) {
