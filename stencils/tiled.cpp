@@ -468,26 +468,31 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
     for (std::uint32_t v = 0; v < table.refinedCount; ++v) table.canonical[drawOf[v]] = v;
 
     // Rows: levels [0, B) whole; the rest only where the fallback needs them (marked from the
-    // finest level back to level B + 1).
-    const std::size_t levels = perLevel.levels.size();
-    std::vector<std::vector<std::uint8_t>> neededAt(levels + 1);
-    neededAt[levels] = std::move(needed);
-    for (std::size_t k = levels; k-- > std::size_t(plan.baseLevel) + 1;) {
-        const StencilLevel& level = perLevel.levels[k];
-        neededAt[k].assign(level.sourceCount, 0);
-        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
-            const RowGroup& g = perLevel.groups[gi];
-            for (std::uint64_t r = g.rowBegin; r < g.rowBegin + g.rowCount; ++r) {
-                if (!neededAt[k + 1][perLevel.destinations[r]]) continue;
-                const std::uint64_t first = g.indexBegin + (r - g.rowBegin) * g.width;
-                for (std::uint32_t j = 0; j < g.width; ++j) neededAt[k][perLevel.indices[first + j]] = 1;
+    // finest level back to level B + 1). Without a tile, every row: the per-level table itself
+    // (the drawing order is then the canonical one).
+    if (table.fallbackBegin == 0) {
+        table.rows = perLevel;
+    } else {
+        const std::size_t levels = perLevel.levels.size();
+        std::vector<std::vector<std::uint8_t>> neededAt(levels + 1);
+        neededAt[levels] = std::move(needed);
+        for (std::size_t k = levels; k-- > std::size_t(plan.baseLevel) + 1;) {
+            const StencilLevel& level = perLevel.levels[k];
+            neededAt[k].assign(level.sourceCount, 0);
+            for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+                const RowGroup& g = perLevel.groups[gi];
+                for (std::uint64_t r = g.rowBegin; r < g.rowBegin + g.rowCount; ++r) {
+                    if (!neededAt[k + 1][perLevel.destinations[r]]) continue;
+                    const std::uint64_t first = g.indexBegin + (r - g.rowBegin) * g.width;
+                    for (std::uint32_t j = 0; j < g.width; ++j) neededAt[k][perLevel.indices[first + j]] = 1;
+                }
             }
         }
+        table.rows.controlCount = perLevel.controlCount;
+        for (std::size_t k = 0; k < levels; ++k)
+            appendRows(table.rows, perLevel, k, k < plan.baseLevel ? nullptr : &neededAt[k + 1],
+                       k + 1 == levels ? &drawOf : nullptr);
     }
-    table.rows.controlCount = perLevel.controlCount;
-    for (std::size_t k = 0; k < levels; ++k)
-        appendRows(table.rows, perLevel, k, k < plan.baseLevel ? nullptr : &neededAt[k + 1],
-                   k + 1 == levels ? &drawOf : nullptr);
 
     // Faces over drawing positions, sorted (counting sort, stable) by their first drawn corner,
     // so that the normals' passes read positions and face normals mostly in order. The corners
