@@ -44,15 +44,22 @@ struct Walker {
         std::vector<std::uint8_t> flags(faces.vertexCount);
         for (Index v = 0; v < faces.vertexCount; ++v) flags[v] = regular(v) ? 1 : 0;
         regularFlags = std::move(flags);
-        // Breadth first from every vertex that is not regular, over the vertices of each face.
+        // Breadth first from every vertex that is not regular, over the vertices of each face;
+        // a face is expanded once, from its first corner dequeued (the nearest: its other
+        // corners are then at most one more).
         clearance.assign(faces.vertexCount, kNone);
         std::vector<Index> queue;
+        std::vector<std::uint8_t> expanded(faces.faceCount(), 0);
         for (Index v = 0; v < faces.vertexCount; ++v)
             if (!regularFlags[v]) clearance[v] = 0, queue.push_back(v);
         for (std::size_t i = 0; i < queue.size(); ++i)
-            for (Index h : c.outgoingOf(queue[i]))
-                for (Index u : faces.face(c.faceOf[h]))
+            for (Index h : c.outgoingOf(queue[i])) {
+                const Index f = c.faceOf[h];
+                if (expanded[f]) continue;
+                expanded[f] = 1;
+                for (Index u : faces.face(f))
                     if (clearance[u] == kNone) clearance[u] = clearance[queue[i]] + 1, queue.push_back(u);
+            }
     }
     std::uint32_t largestClearance() const {
         return clearance.empty() ? kNone : *std::max_element(clearance.begin(), clearance.end());
