@@ -121,16 +121,16 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
     // torus: its failing walks, on strips beside covered blocks, fail in the ring walk).
     if (!w.clearance.empty() && w.clearance[v] <= halo + side) {
         if (w.clearance[v] <= halo) return false;
+        // Diagonally, one step up and one right at a time: after s of them the centre is
+        // side / 2 - s hops away, so the clearance here must exceed halo + s.
         Index u = v, ux = hx;
-        for (std::uint32_t s = 0; s < side / 2; ++s) {
+        for (std::uint32_t s = 1; s <= side / 2; ++s) {
             const Index up = w.rot(ux);
             u = w.head(up);
             if (!w.regular(u)) return false;
             ux = w.rot(w.c.twin[up]);
-        }
-        for (std::uint32_t s = 0; s < side / 2; ++s) {
             u = w.head(ux);
-            if (!w.regular(u)) return false;
+            if (!w.regular(u) || w.clearance[u] <= halo + s) return false;
             ux = w.straight(ux);
         }
         if (w.clearance[u] <= (g - 1) / 2) return false;
