@@ -474,8 +474,8 @@ TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
 }
 
 // The levels buildTiledTable walks and names the lattices from are checked against the table:
-// level N - 1 in place of N - 2, or the wrong split flag on a boundary model (smooth boundary:
-// every step splits), is refused, not turned into a wrong table.
+// level N - 1 in place of N - 2, a wrong level B, or the wrong split flag on a boundary model
+// (the smooth boundary splits at odd P-S steps) is refused, not turned into a wrong table.
 TEST(Tiled, LevelsThatAreNotTheTablesAreRefused) {
     const test::Loaded torus = loadTorus(24, 16);
     const Hierarchy h = test::refine(torus, 4);
