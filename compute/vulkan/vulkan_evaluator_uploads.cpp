@@ -334,7 +334,6 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     const Buffer vertexOffsets = fixedVertices ? Buffer{} : uploader.upload(vertexRelative, tables);
     const Buffer vertexFaces = fixedVertices ? Buffer{} : uploader.upload(surface.vertexFaces, tables);
 
-    // One chunk of a CSR table (row offsets, entries) as a dispatch from `from` to `to`.
     Stage faceStage;
     faceStage.kernel = Kernel::FaceNormals;
     faceStage.specialization = {3, positions.stride, faceNormals.stride, positions.windows > 1, faceNormals.windows > 1};
