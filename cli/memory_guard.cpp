@@ -16,16 +16,21 @@ std::uint64_t physicalMemory() {
     return pages > 0 && pageSize > 0 ? std::uint64_t(pages) * std::uint64_t(pageSize) : 0;
 }
 
-// Rough peak bytes of refining to `steps` topological steps with psub::refine, which keeps
-// two levels of topology at a time (about 44 B per half-edge, 30 B per vertex, 8 B per face),
-// plus every level's table rows, the finest surface, the evaluator's level buffers (doubles)
-// and the OBJ text of the finest level.
-double estimateBytes(const Counts& input, int steps, Boundary boundary, bool preprocessed) {
+// Rough peak bytes of refining to `steps` topological steps: two levels of topology (about 44 B
+// per half-edge, 30 B per vertex, 8 B per face), plus every level's table rows, the finest
+// surface, the evaluator's level buffers (doubles) and the OBJ text of the finest level. With
+// `finestFacesOnly` (psub::refine) the finest level is its faces only (4 B per corner and per
+// face); OpenSubdiv's refiner gives it half-edges too. Measured peaks (`/usr/bin/time`,
+// `psub subdivide data/cow.obj`): P-S levels 4 / 7 / 9 46.0 / 335 / 1249 MiB against estimates
+// of 47.4 / 382 / 1536 MiB; Catmull-Clark levels 2 / 3 / 4 35.7 / 120 / 455 MiB against
+// 36.3 / 147 / 588 MiB.
+double estimateBytes(const Counts& input, int steps, Boundary boundary, bool preprocessed, bool finestFacesOnly) {
     auto halfedges = [](const Counts& c) { return 2.0 * double(c.edges) - double(c.boundaryEdges); };
     auto topology = [&](const Counts& c) { return 44 * halfedges(c) + 30 * double(c.vertices) + 8 * double(c.faces); };
     auto after = [&](int k) { return countsAfterSteps(input, k, boundary, preprocessed); };
     const Counts finest = after(steps);
-    double bytes = topology(finest) + (steps > 0 ? topology(after(steps - 1)) : 0.0);
+    double bytes = finestFacesOnly && steps > 0 ? 4 * (halfedges(finest) + double(finest.faces)) : topology(finest);
+    if (steps > 0) bytes += topology(after(steps - 1));
     for (int k = 1; k <= steps; ++k) {
         const Counts parent = after(k - 1), child = after(k);
         bytes += 4 * (double(child.vertices) + double(parent.vertices) + 3 * halfedges(parent));  // table
@@ -55,16 +60,18 @@ void guardMemory(const Mesh& mesh, const Counts& input, int levels, int stepsPer
                  std::uint64_t limit, Boundary boundary) {
     if (limit == 0) limit = physicalMemory() / 4 * 3;
     auto steps = [&](int l) { return extraSteps + stepsPerLevel * l; };
+    const bool facesOnly = stepsPerLevel == 1;  // P-S: psub::refine; Catmull-Clark: OpenSubdiv
+    const auto estimate = [&](int l) { return estimateBytes(input, steps(l), boundary, extraSteps > 0, facesOnly); };
     auto fits = [&](int l) {
         const Counts c = countsAfterSteps(input, steps(l), boundary, extraSteps > 0);
-        return estimateBytes(input, steps(l), boundary, extraSteps > 0) <= double(limit) &&
+        return estimate(l) <= double(limit) &&
                2.0 * double(c.edges) < double(kNoIndex) && double(c.vertices) < double(kNoIndex);
     };
     if (fits(levels)) return;
     int most = -1;
     while (most + 1 < levels && fits(most + 1)) ++most;
     throw InputError(mesh.source.path + ": --levels " + std::to_string(levels) + " would need about " +
-                     humanBytes(estimateBytes(input, steps(levels), boundary, extraSteps > 0)) + " (limit " + humanBytes(double(limit)) +
+                     humanBytes(estimate(levels)) + " (limit " + humanBytes(double(limit)) +
                      ", and 32-bit indices); " +
                      (most >= 0 ? "--levels " + std::to_string(most) + " is the most that fits"
                                 : std::string("not even the input fits")));
