@@ -171,7 +171,7 @@ template <class T>
 // The float and double steps, each compiled twice (AVX2 and the x86-64 baseline) and chosen
 // at load time by the CPU; no fused multiply-add in either, so both give the same bits.
 #if defined(__x86_64__) && defined(__GNUC__)
-#define PSUB_TILE_CLONES __attribute__((target_clones("avx2", "default")))
+#define PSUB_TILE_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else
 #define PSUB_TILE_CLONES
 #endif
