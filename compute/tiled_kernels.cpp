@@ -168,8 +168,10 @@ template <class T>
     }
 }
 
-// The float and double steps, each compiled twice (AVX2 and the x86-64 baseline) and chosen
-// at load time by the CPU; no fused multiply-add in either, so both give the same bits.
+// The float and double steps, each compiled three times (AVX-512, AVX2 and the x86-64
+// baseline) and chosen at load time by the CPU; no fused multiply-add in any (the file is
+// built with -ffp-contract=off: AVX-512F has fused multiply-adds of its own), so all give the
+// same bits.
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PSUB_TILE_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #else
