@@ -18,12 +18,14 @@ std::uint64_t physicalMemory() {
 
 // Rough peak bytes of refining to `steps` topological steps: two levels of topology (about 44 B
 // per half-edge, 30 B per vertex, 8 B per face), plus every level's table rows, the finest
-// surface, the evaluator's level buffers (doubles) and the OBJ text of the finest level. With
+// surface, the evaluator's level buffers (doubles), the OBJ text of the finest level and 16 MiB
+// for the program itself and the allocator's free pages (cli/main.cpp keeps them). With
 // `finestFacesOnly` (psub::refine) the finest level is its faces only (4 B per corner and per
 // face); OpenSubdiv's refiner gives it half-edges too. Measured peaks (`/usr/bin/time`,
-// `psub subdivide data/cow.obj`): P-S levels 4 / 7 / 9 46.0 / 335 / 1249 MiB against estimates
-// of 47.4 / 382 / 1536 MiB; Catmull-Clark levels 2 / 3 / 4 35.7 / 120 / 455 MiB against
-// 36.3 / 147 / 588 MiB.
+// `psub subdivide data/cow.obj`, 2026-12-03) against the estimates: P-S levels 1 / 4 / 6 / 7 / 8
+// 12.7 / 56.9 / 196.7 / 345 / 673 MiB against 21.5 / 63.4 / 206.8 / 398 / 781 MiB;
+// Catmull-Clark levels 1 / 2 / 3 / 4 14.9 / 36.5 / 122 / 462 MiB against 24.7 / 52.3 / 163 /
+// 604 MiB.
 double estimateBytes(const Counts& input, int steps, Boundary boundary, bool preprocessed, bool finestFacesOnly) {
     auto halfedges = [](const Counts& c) { return 2.0 * double(c.edges) - double(c.boundaryEdges); };
     auto topology = [&](const Counts& c) { return 44 * halfedges(c) + 30 * double(c.vertices) + 8 * double(c.faces); };
@@ -37,7 +39,8 @@ double estimateBytes(const Counts& input, int steps, Boundary boundary, bool pre
         bytes += 24 * double(child.vertices);  // evaluator buffers
     }
     bytes += 4 * (double(finest.faces) + 2 * halfedges(finest) + double(finest.vertices));  // surface
-    return bytes + 60 * double(finest.vertices) + 25 * double(finest.faces);                 // OBJ text
+    bytes += 60 * double(finest.vertices) + 25 * double(finest.faces);  // OBJ text
+    return bytes + double(16 << 20);
 }
 
 std::string humanBytes(double bytes) {

@@ -120,7 +120,7 @@ TEST_F(HostileOptions, MaxMemoryRefusesNegativeZeroOverflowAndJunk) {
 TEST_F(HostileOptions, MaxMemoryUnitsAreBinary) {
     // 1K is 1024 bytes: far too little for 4 levels of the cube, and the message says so.
     // (Measured with `psub stats data/cube.obj --levels 4 --max-memory 1K`, 2026-12-03: the
-    // estimate is 33.6 KiB.)
+    // estimate is 16.0 MiB, most of it the program itself.)
     const PsubRun r = psub("stats " + kCube + " --levels 4 --max-memory 1K");
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(oneLine(r), "(limit 1.0 KiB")) << r.err;
