@@ -26,6 +26,9 @@
 #include <GLFW/glfw3.h>
 #include <fcntl.h>
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <algorithm>
 #include <array>
@@ -481,6 +484,9 @@ void Viewer::adopt(Built b) {
     }
     ccNormals = std::make_unique<CpuEvaluator<float>>(built->ccIdentity, built->none, built->cc, TableForm::PerLevel);
     createRenderers();
+#if defined(__GLIBC__)
+    malloc_trim(0);  // the old level's pages: psub keeps freed pages (cli/main.cpp), a viewer gives them back
+#endif
 }
 
 void Viewer::act(Action action) {
