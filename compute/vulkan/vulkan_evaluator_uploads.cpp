@@ -291,11 +291,6 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     // every frame, for the fixed vertex layout's unused slots.
     makeVertexBuffer(faceNormals, faces + 1, 4, false);
     makeVertexBuffer(normals, surface.vertexCount, 4, true);  // padded: written as vec4, read back as xyz
-    std::vector<std::uint32_t> faceRelative, vertexRelative;
-    const std::vector<CsrChunk> faceChunks = splitCsr(surface.faceOffsets, faceRelative, "surface's faces");
-    const Buffer faceOffsets = uploader.upload(faceRelative, tables);
-    const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
-    const VertexBuffer& positions = refinedBuffer();
     // Two fixed layouts that save the kernels their offset loads (one uvec4 fetch per 4 words):
     // all faces quads (corners of face f at 4 f), and vertices in at most 8 faces (vertex v's 8
     // words at 8 v: its faces in table order, then the zero element's number). A few vertices
@@ -303,6 +298,13 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     // the fixed layout: their sums are overwritten after it by their own CSR rows (listed).
     bool allQuads = faces > 0;
     for (std::uint64_t f = 0; f < faces && allQuads; ++f) allQuads = surface.faceOffsets[f + 1] - surface.faceOffsets[f] == 4;
+    std::vector<std::uint32_t> faceRelative, vertexRelative;
+    const std::vector<CsrChunk> faceChunks = splitCsr(surface.faceOffsets, faceRelative, "surface's faces");
+    const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
+    // Quads need no offsets: the face kernel then reads none, and its offsets binding gets the
+    // corners (any valid range).
+    const Buffer faceOffsets = allQuads ? faceVerts : uploader.upload(faceRelative, tables);
+    const VertexBuffer& positions = refinedBuffer();
     constexpr std::uint32_t kVertexWords = 8;
     std::vector<std::uint32_t> heavy;
     for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
