@@ -50,9 +50,11 @@ def main():
     for key in ("machine", "triad_gbs", "triad_gbs_1thread", "write_only_gbs", "command", "results"):
         if key not in data:
             fail(f"top-level field {key!r} missing")
-    for key in ("cpu", "cores", "date", "compiler", "opensubdiv"):
+    for key in ("cpu", "cores", "date", "compiler", "opensubdiv", "tile_kernel"):
         if key not in data["machine"]:
             fail(f"machine.{key} missing")
+    if data["machine"]["tile_kernel"] not in ("avx512f", "avx2", "baseline"):
+        fail(f"machine.tile_kernel is {data['machine']['tile_kernel']!r}")
     results = data["results"]
     if not results:
         fail("no results")

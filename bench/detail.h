@@ -28,6 +28,7 @@ inline double msSince(Clock::time_point start) {
 
 struct Machine {
     std::string cpu, compiler, osdVersion, date, kernel;
+    std::string tileKernel;  // the instruction set of the CPU tile kernel's clone (tileKernelInstructions)
     int cores = 0;          // logical processors online
     int threads = 0;        // "all threads": OpenMP's default team size at start-up
     double memoryGiB = 0;

@@ -1,6 +1,7 @@
 // The machine the benchmark ran on, its memory bandwidth (STREAM-style triad), the progress
 // line, the animation of the control points and small helpers.
 #include "detail.h"
+#include "psub/evaluator.h"
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -34,6 +35,7 @@ Machine describeMachine() {
             break;
         }
     if (m.cpu.empty()) m.cpu = "unknown CPU";
+    m.tileKernel = tileKernelInstructions();
     const long cores = ::sysconf(_SC_NPROCESSORS_ONLN);
     m.cores = cores > 0 ? int(cores) : 1;
     m.threads = omp_get_max_threads();

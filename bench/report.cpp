@@ -70,7 +70,8 @@ void printMarkdown(const Report& report, std::FILE* out) {
     std::fprintf(out, "# psub bench: PSub (P-S) against OpenSubdiv (Catmull-Clark), same run\n\n");
     std::fprintf(out, "- Machine: %s, %d logical cores (%d threads used for \"all\"), %.1f GiB, %s\n", m.cpu.c_str(),
                  m.cores, m.threads, m.memoryGiB, m.kernel.c_str());
-    std::fprintf(out, "- Compiler: %s; OpenSubdiv %s (Debian libosdCPU)\n", m.compiler.c_str(), m.osdVersion.c_str());
+    std::fprintf(out, "- Compiler: %s; OpenSubdiv %s (Debian libosdCPU); the CPU tile kernel's %s clone\n",
+                 m.compiler.c_str(), m.osdVersion.c_str(), m.tileKernel.c_str());
     std::fprintf(out, "- Date: %s; whole run %.0f s; meanwhile other processes used %.1f CPU-seconds and the "
                       "hypervisor stole %.1f (1-minute load average %.2f before, %.2f after)\n",
                  m.date.c_str(), report.seconds, report.otherCpuSeconds, report.stealSeconds, report.loadStart,
@@ -197,7 +198,7 @@ using Json = nlohmann::ordered_json;  // keeps the fields in the order written
 void writeJson(const Report& report, const std::string& path) {
     const Machine& m = report.machine;
     Json machine = {{"cpu", m.cpu}, {"cores", m.cores}, {"threads", m.threads}, {"memory_gib", m.memoryGiB},
-                    {"compiler", m.compiler}, {"opensubdiv", m.osdVersion}, {"kernel", m.kernel}, {"date", m.date},
+                    {"compiler", m.compiler}, {"opensubdiv", m.osdVersion}, {"kernel", m.kernel}, {"date", m.date}, {"tile_kernel", m.tileKernel},
                     {"load_average_start", report.loadStart}, {"load_average_end", report.loadEnd},
                     {"other_cpu_seconds", report.otherCpuSeconds}, {"steal_seconds", report.stealSeconds}};
 

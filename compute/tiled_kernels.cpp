@@ -239,6 +239,15 @@ std::uint32_t largestGrid(const TiledTable& table) {
 
 }  // namespace
 
+const char* tileKernelInstructions() {
+#if defined(__x86_64__) && defined(__GNUC__)
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) return "avx512f";
+    if (__builtin_cpu_supports("avx2")) return "avx2";
+#endif
+    return "baseline";
+}
+
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
     return (4 + std::size_t(width)) * n * n + 2 * std::max<std::size_t>(width, 3) * side * side + 9 * side;

@@ -66,6 +66,9 @@ TileNormalSets tileNormalSets(const TiledTable& tiled);
 // `lattice`, writes instead the tile's whole (L + 1) x (L + 1) lattice there, row by row, its
 // border points included (for tests).
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width);
+// The instruction set the tile kernel runs with on this CPU, "avx512f", "avx2" or "baseline":
+// it is compiled for each and picks one at load time by the same test.
+const char* tileKernelInstructions();
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   const TileNormals<T>& normals, T* scratch, T* lattice = nullptr);
