@@ -8,9 +8,11 @@
 #include "psub/evaluator.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <string_view>
 #include <type_traits>
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -168,47 +170,88 @@ template <class T>
     }
 }
 
-// The float and double steps, each compiled three times (AVX-512, AVX2 and the x86-64
-// baseline) and chosen at load time by the CPU; no fused multiply-add in any (the file is
-// built with -ffp-contract=off: AVX-512F has fused multiply-adds of its own), so all give the
-// same bits.
+// The kernel's steps, compiled once per instruction set (AVX-512, AVX2 and the x86-64
+// baseline: the bodies above are inlined into each variant and vectorised for its target),
+// one set chosen at run time (tileKernelInstructions; tests force each in turn). No fused
+// multiply-add in any (the file is built with -ffp-contract=off: AVX-512F has fused
+// multiply-adds of its own), so all give the same bits.
+template <class T>
+struct TileSteps {
+    void (*quincunx)(const T* c, std::size_t n, T* qv, T* qf);
+    void (*fine)(const T* qv, const T* qf, std::size_t n, std::size_t from, std::size_t count, T* f);
+    void (*quadNormals)(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx, T* ny, T* nz);
+    void (*vertexNormals)(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny, T* nz);
+    void (*interleave3)(const T* x, const T* y, const T* z, std::size_t count, T* out);
+};
+
+#define PSUB_TILE_STEPS(NAME, TARGET)                                                                            \
+    template <class T>                                                                                           \
+    TARGET void NAME##Quincunx(const T* c, std::size_t n, T* qv, T* qf) {                                       \
+        quincunxBody(c, n, qv, qf);                                                                              \
+    }                                                                                                            \
+    template <class T>                                                                                           \
+    TARGET void NAME##Fine(const T* qv, const T* qf, std::size_t n, std::size_t from, std::size_t count, T* f) { \
+        fineBody(qv, qf, n, from, count, f);                                                                     \
+    }                                                                                                            \
+    template <class T>                                                                                           \
+    TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,    \
+                                  T* ny, T* nz) {                                                                \
+        quadNormalsBody(x, y, z, side, L, nx, ny, nz);                                                           \
+    }                                                                                                            \
+    template <class T>                                                                                           \
+    TARGET void NAME##VertexNormals(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny,   \
+                                    T* nz) {                                                                     \
+        vertexNormalsBody(lo, hi, stride, L, nx, ny, nz);                                                        \
+    }                                                                                                            \
+    template <class T>                                                                                           \
+    TARGET void NAME##Interleave3(const T* x, const T* y, const T* z, std::size_t count, T* out) {              \
+        interleave3Body(x, y, z, count, out);                                                                    \
+    }                                                                                                            \
+    template <class T>                                                                                           \
+    constexpr TileSteps<T> NAME##Steps{&NAME##Quincunx<T>, &NAME##Fine<T>, &NAME##QuadNormals<T>,                \
+                                       &NAME##VertexNormals<T>, &NAME##Interleave3<T>};
+
+PSUB_TILE_STEPS(baseline, )
 #if defined(__x86_64__) && defined(__GNUC__)
-#define PSUB_TILE_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define PSUB_TILE_CLONES
+#define PSUB_TILE_X86 1
+PSUB_TILE_STEPS(avx2, __attribute__((target("avx2"))))
+PSUB_TILE_STEPS(avx512, __attribute__((target("avx512f"))))
 #endif
-PSUB_TILE_CLONES void quincunx(const float* c, std::size_t n, float* qv, float* qf) { quincunxBody(c, n, qv, qf); }
-PSUB_TILE_CLONES void quincunx(const double* c, std::size_t n, double* qv, double* qf) { quincunxBody(c, n, qv, qf); }
-PSUB_TILE_CLONES void fine(const float* qv, const float* qf, std::size_t n, std::size_t from, std::size_t count,
-                           float* f) {
-    fineBody(qv, qf, n, from, count, f);
+#undef PSUB_TILE_STEPS
+
+// The instruction sets, best first, and which of them runs (-1: not chosen yet, the best
+// this CPU has on first use).
+constexpr const char* kInstructionSets[] = {"avx512f", "avx2", "baseline"};
+std::atomic<int> chosenSet{-1};
+
+bool cpuHas(int set) {
+#if PSUB_TILE_X86
+    __builtin_cpu_init();
+    if (set == 0) return __builtin_cpu_supports("avx512f");
+    if (set == 1) return __builtin_cpu_supports("avx2");
+#endif
+    return set == 2;
 }
-PSUB_TILE_CLONES void fine(const double* qv, const double* qf, std::size_t n, std::size_t from, std::size_t count,
-                           double* f) {
-    fineBody(qv, qf, n, from, count, f);
+
+int activeSet() {
+    int set = chosenSet.load(std::memory_order_relaxed);
+    if (set < 0) {
+        set = 0;
+        while (!cpuHas(set)) ++set;
+        chosenSet.store(set, std::memory_order_relaxed);
+    }
+    return set;
 }
-PSUB_TILE_CLONES void quadNormals(const float* x, const float* y, const float* z, std::size_t side, std::size_t L,
-                                  float* nx, float* ny, float* nz) {
-    quadNormalsBody(x, y, z, side, L, nx, ny, nz);
-}
-PSUB_TILE_CLONES void quadNormals(const double* x, const double* y, const double* z, std::size_t side, std::size_t L,
-                                  double* nx, double* ny, double* nz) {
-    quadNormalsBody(x, y, z, side, L, nx, ny, nz);
-}
-PSUB_TILE_CLONES void vertexNormals(const float* lo, const float* hi, std::size_t stride, std::size_t L, float* nx,
-                                    float* ny, float* nz) {
-    vertexNormalsBody(lo, hi, stride, L, nx, ny, nz);
-}
-PSUB_TILE_CLONES void vertexNormals(const double* lo, const double* hi, std::size_t stride, std::size_t L, double* nx,
-                                    double* ny, double* nz) {
-    vertexNormalsBody(lo, hi, stride, L, nx, ny, nz);
-}
-PSUB_TILE_CLONES void interleave3(const float* x, const float* y, const float* z, std::size_t count, float* out) {
-    interleave3Body(x, y, z, count, out);
-}
-PSUB_TILE_CLONES void interleave3(const double* x, const double* y, const double* z, std::size_t count,
-                                  double* out) {
-    interleave3Body(x, y, z, count, out);
+
+template <class T>
+const TileSteps<T>& steps() {
+    switch (activeSet()) {
+#if PSUB_TILE_X86
+    case 0: return avx512Steps<T>;
+    case 1: return avx2Steps<T>;
+#endif
+    default: return baselineSteps<T>;
+    }
 }
 
 // `count` values from `from` to `to` with streaming (non-temporal) stores where `to` is
@@ -239,13 +282,15 @@ std::uint32_t largestGrid(const TiledTable& table) {
 
 }  // namespace
 
-const char* tileKernelInstructions() {
-#if defined(__x86_64__) && defined(__GNUC__)
-    __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx512f")) return "avx512f";
-    if (__builtin_cpu_supports("avx2")) return "avx2";
-#endif
-    return "baseline";
+const char* tileKernelInstructions() { return kInstructionSets[activeSet()]; }
+
+bool setTileKernelInstructions(std::string_view name) {
+    for (int set = 0; set < 3; ++set)
+        if (name == kInstructionSets[set] && cpuHas(set)) {
+            chosenSet.store(set, std::memory_order_relaxed);
+            return true;
+        }
+    return false;
 }
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
@@ -268,6 +313,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     T* quads = packed + std::max<std::uint32_t>(width, 3) * plane;  // two rows of quad normals, 3 planes each
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
+    const auto [quincunx, fine, quadNormals, vertexNormals, interleave3] = steps<T>();
     const std::size_t points = std::size_t(g) * g;
     if (width == 3) {
         for (std::size_t i = 0; i < points; ++i) {

@@ -282,6 +282,58 @@ TEST(Tiled, ThreadsGiveBitIdenticalResults) {
     EXPECT_EQ(tiledCanonical<float>(table, torus.mesh.positions, 3, 1), tiledCanonical<float>(table, torus.mesh.positions, 3, 3));
 }
 
+// The tile kernel is compiled for AVX-512, AVX2 and the x86-64 baseline (any CPU runs one):
+// every instruction set this CPU has gives the same bits, positions and the tile pass's
+// normals, float and double, at t = 1, 2 and 3 and widths 1, 3, 4 and 7, on a torus (all
+// tiles) and Spot (fallback beside its tiles).
+TEST(Tiled, EveryInstructionSetGivesTheSameBits) {
+    const std::string original = tileKernelInstructions();
+    std::vector<std::string> sets;
+    for (const char* set : {"avx512f", "avx2", "baseline"})
+        if (setTileKernelInstructions(set)) sets.push_back(set);
+    ASSERT_TRUE(setTileKernelInstructions(original));
+    EXPECT_EQ(sets.back(), "baseline");  // every CPU runs the baseline
+    if (sets.size() < 2) GTEST_SKIP() << "this CPU has only the baseline instruction set: nothing to compare it with";
+    struct Case {
+        test::Loaded loaded;
+        int levels;
+    };
+    std::vector<Case> cases;
+    for (const int levels : {2, 4, 6}) cases.push_back({loadTorus(24, 16), levels});
+    cases.push_back({test::load(test::dataPath("spot_control_mesh.obj")), 5});
+    for (const Case& c : cases) {
+        const Hierarchy h = test::refine(c.loaded, c.levels);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h), TileSides::Every);
+        ASSERT_GT(table.tileCount(), 0u);
+        for (const std::uint32_t width : {1u, 3u, 4u, 7u}) {
+            SCOPED_TRACE("t = " + std::to_string(table.doubleSteps) + ", width " + std::to_string(width));
+            const std::vector<float> controlF = test::animate(c.loaded.mesh.positions, width, 1);
+            const std::vector<double> controlD(controlF.begin(), controlF.end());
+            std::vector<std::vector<float>> positions, normals;
+            std::vector<std::vector<double>> positionsD;
+            for (const std::string& set : sets) {
+                ASSERT_TRUE(setTileKernelInstructions(set));
+                EXPECT_EQ(tileKernelInstructions(), set);
+                CpuEvaluator<float> evaluator(table, width, 2);
+                positions.emplace_back(std::size_t(table.refinedCount) * width);
+                normals.emplace_back(width >= 3 ? 3 * std::size_t(table.refinedCount) : 0);
+                if (width >= 3) evaluator.evaluate(controlF, positions.back(), normals.back());
+                else evaluator.evaluate(controlF, positions.back());
+                CpuEvaluator<double> evaluatorD(table, width, 2);
+                positionsD.emplace_back(std::size_t(table.refinedCount) * width);
+                evaluatorD.evaluate(controlD, positionsD.back());
+            }
+            for (std::size_t i = 1; i < sets.size(); ++i) {
+                EXPECT_EQ(positions[i], positions[0]) << sets[i] << " against " << sets[0];
+                EXPECT_EQ(normals[i], normals[0]) << sets[i] << " against " << sets[0];
+                EXPECT_EQ(positionsD[i], positionsD[0]) << sets[i] << " against " << sets[0];
+            }
+        }
+    }
+    ASSERT_TRUE(setTileKernelInstructions(original));
+    EXPECT_FALSE(setTileKernelInstructions("sse9"));
+}
+
 // Tiled evaluators share each thread's scratch (the larger the tables, the larger it grows):
 // evaluators of other sizes and widths taking turns on the same threads give each the results
 // it gives alone, on 1 and 2 threads.

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string_view>
 #include <vector>
 
 namespace psub {
@@ -66,9 +67,11 @@ TileNormalSets tileNormalSets(const TiledTable& tiled);
 // `lattice`, writes instead the tile's whole (L + 1) x (L + 1) lattice there, row by row, its
 // border points included (for tests).
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width);
-// The instruction set the tile kernel runs with on this CPU, "avx512f", "avx2" or "baseline":
-// it is compiled for each and picks one at load time by the same test.
+// The instruction set the tile kernel runs with, "avx512f", "avx2" or "baseline": it is
+// compiled for each and runs the best this CPU has, unless setTileKernelInstructions chose
+// another (one this CPU has; false otherwise). Process-wide; for tests and benchmarks.
 const char* tileKernelInstructions();
+bool setTileKernelInstructions(std::string_view name);
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   const TileNormals<T>& normals, T* scratch, T* lattice = nullptr);
