@@ -85,11 +85,19 @@ int torusSize(const std::string& name) {
     return std::stoi(digits);
 }
 
+// Build times in ms, each the fastest of its repetitions: refine() with the per-level (and
+// factorized) tables, and the tiled form's own lean build (RefineOptions::perLevel = false,
+// what a program that evaluates only the tiled form builds; the same table, tests/test_tiled.cpp).
+struct BuildMs {
+    double topology = 1e300, perLevel = 1e300, factorized = 1e300;
+    double tiledTopology = 1e300, tiled = 1e300;
+};
+
 // The tiled form's record (psub/tiled.h): table bytes are what evaluating reads (rows, gather
 // lists, tile data); bytes per frame add 12 B per vertex of each per-level source and
 // destination up to level B, of level B once (the tiles' gathers) and of the finest level.
 Record tiledRecord(const Model& model, int levels, int k, const Refinement& refinement, const std::string& evaluator,
-                   double topologyMs, double perLevelMs) {
+                   const BuildMs& build) {
     const TiledTable& tiled = refinement.tiled;
     std::uint64_t levelVertices = 0;
     for (std::size_t l = 0; l < tiled.rows.levels.size(); ++l) {
@@ -107,8 +115,8 @@ Record tiledRecord(const Model& model, int levels, int k, const Refinement& refi
     r.controlVertices = tiled.controlCount;
     r.evaluator = evaluator + "-tiled";
     r.table = "tiled";
-    r.topologyMs = topologyMs;
-    r.tableMs = perLevelMs + refinement.tiledMs;
+    r.topologyMs = build.tiledTopology;
+    r.tableMs = build.tiled;
     r.buildMs = r.topologyMs + r.tableMs;
     r.tableBytes = tiled.bytes();
     r.tableEntries = tiled.rows.indices.size() + tiled.gather.size();
@@ -121,9 +129,9 @@ Record tiledRecord(const Model& model, int levels, int k, const Refinement& refi
 // The fields every PSub record shares: model, size, table form, build times, bytes per frame
 // (table + each level's source and destination vertices, 12 B each; factorized: control + finest).
 Record psubRecord(const Model& model, int levels, int k, const Refinement& refinement, TableForm form,
-                  const std::string& evaluator, double topologyMs, double perLevelMs, double factorizedMs) {
+                  const std::string& evaluator, const BuildMs& build) {
     const bool isPerLevel = form == TableForm::PerLevel;
-    if (form == TableForm::Tiled) return tiledRecord(model, levels, k, refinement, evaluator, topologyMs, perLevelMs);
+    if (form == TableForm::Tiled) return tiledRecord(model, levels, k, refinement, evaluator, build);
     const std::uint64_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
     std::uint64_t levelVertices = 0;
     for (const StencilLevel& level : refinement.perLevel.levels)
@@ -139,8 +147,8 @@ Record psubRecord(const Model& model, int levels, int k, const Refinement& refin
     r.evaluator = evaluator + (isPerLevel ? "-perlevel" : "-factorized");
     r.table = isPerLevel ? "per-level" : "factorized";
     r.layoutFloats = 3;
-    r.topologyMs = topologyMs;
-    r.tableMs = perLevelMs + (isPerLevel ? 0 : factorizedMs);
+    r.topologyMs = build.topology;
+    r.tableMs = build.perLevel + (isPerLevel ? 0 : build.factorized);
     r.buildMs = r.topologyMs + r.tableMs;
     r.tableBytes = isPerLevel ? refinement.perLevel.bytes() : refinement.factorized.bytes();
     r.tableEntries = isPerLevel ? refinement.perLevel.indices.size() : refinement.factorized.indices.size();
@@ -151,7 +159,7 @@ Record psubRecord(const Model& model, int levels, int k, const Refinement& refin
 #if PSUB_HAVE_VULKAN
 // The Vulkan evaluator on the same tables (lavapipe here: the same 2 cores), timed with the
 // results left on the device, then read back once and checked against the CPU's.
-void benchVulkan(const Model& model, int levels, int k, const Refinement& refinement,
+void benchVulkan(const Model& model, int levels, int k, const Refinement& refinement, const BuildMs& build,
                  const std::vector<TableForm>& forms, const Animation& animation,
                  const std::vector<float>& reference, const Shape& shape, const FrameSettings& frames,
                  Progress& progress, const std::string& label, std::vector<Record>& records,
@@ -170,8 +178,7 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
     const std::size_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
     std::vector<float> control(3 * controlCount), out(3 * refinedCount), canonical;
     for (TableForm form : forms) {
-        Record r = psubRecord(model, levels, k, refinement, form, "psub-vulkan", refinement.topologyMs,
-                              refinement.perLevelMs, refinement.factorizedMs);
+        Record r = psubRecord(model, levels, k, refinement, form, "psub-vulkan", build);
         r.threads = 0;  // the driver's own threads
         progress.show(label + ": " + r.evaluator + " (" + context->deviceName() + ")");
         try {
@@ -237,8 +244,9 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
               std::vector<std::string>& warnings, std::vector<std::string>& notes) {
     progress.show(label + ": PSub topology + tables");
     // Built up to 3 times while that takes under a second in all; the fastest of each part.
+    // Then the tiled form's lean build the same way (its table is the same; not kept).
     Refinement refinement;
-    double topologyMs = 1e300, perLevelMs = 1e300, factorizedMs = 1e300;
+    BuildMs build;
     int repetitions = 0;
     RefineOptions options;
     options.levels = levels;
@@ -249,11 +257,19 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     do {
         refinement = Refinement{};
         refinement = refine(model.mesh, model.connectivity, options);
-        topologyMs = std::min(topologyMs, refinement.topologyMs);
-        perLevelMs = std::min(perLevelMs, refinement.perLevelMs);
-        factorizedMs = std::min(factorizedMs, refinement.factorizedMs);
+        build.topology = std::min(build.topology, refinement.topologyMs);
+        build.perLevel = std::min(build.perLevel, refinement.perLevelMs);
+        build.factorized = std::min(build.factorized, refinement.factorizedMs);
         ++repetitions;
     } while (repetitions < kBuildRepetitions && msSince(buildStart) < kBuildSeconds * 1e3);
+    options.factorized = false;
+    options.perLevel = false;
+    const auto leanStart = Clock::now();
+    for (int lean = 0; lean < kBuildRepetitions && (lean == 0 || msSince(leanStart) < kBuildSeconds * 1e3); ++lean) {
+        const Refinement tiledOnly = refine(model.mesh, model.connectivity, options);
+        build.tiledTopology = std::min(build.tiledTopology, tiledOnly.topologyMs);
+        build.tiled = std::min(build.tiled, tiledOnly.tiledMs);
+    }
     const PerLevelTable& perLevel = refinement.perLevel;
     const FactorizedTable& factorized = refinement.factorized;
     const std::size_t controlCount = perLevel.controlCount, refinedCount = perLevel.refinedCount();
@@ -269,8 +285,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     std::vector<float> canonical;
     for (TableForm form : forms)
         for (int threads : threadCounts) {
-            Record r = psubRecord(model, levels, k, refinement, form, "psub-cpu", topologyMs, perLevelMs,
-                                  factorizedMs);
+            Record r = psubRecord(model, levels, k, refinement, form, "psub-cpu", build);
             r.threads = threads;
             r.buildRepetitions = repetitions;
             progress.show(label + ": " + r.evaluator + " " + std::to_string(threads) + " thr");
@@ -308,7 +323,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
         }
     tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN
-    benchVulkan(model, levels, k, refinement, forms, animation, reference, shape, frames, progress, label, records,
+    benchVulkan(model, levels, k, refinement, build, forms, animation, reference, shape, frames, progress, label, records,
                 warnings);
 #endif
     return shape;

@@ -35,8 +35,9 @@ Model refined(const std::string& name, int levels, bool tiled) {
     const psub::CheckedMesh checked = psub::checkMesh(m.mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
     options.tiled = tiled;
+    options.perLevel = !tiled;  // the tiled form alone: its lean build
     m.refinement = psub::refine(m.mesh, checked.connectivity, options);
-    m.faces = m.refinement.surface.faceOffsets.size() - 1;
+    m.faces = (tiled ? m.refinement.tiled.surface : m.refinement.surface).faceOffsets.size() - 1;
     return m;
 }
 
@@ -53,7 +54,9 @@ struct Buffers {
 };
 
 Buffers buffersFor(const Model& m) {
-    const std::size_t refined = 3 * std::size_t(m.refinement.perLevel.refinedCount());
+    const psub::Refinement& r = m.refinement;
+    const bool tiledOnly = r.perLevel.levels.empty() && r.tiled.refinedCount > 0;
+    const std::size_t refined = 3 * std::size_t(tiledOnly ? r.tiled.refinedCount : r.perLevel.refinedCount());
     return {std::vector<float>(m.mesh.positions.begin(), m.mesh.positions.end()), std::vector<float>(refined),
             std::vector<float>(refined)};
 }

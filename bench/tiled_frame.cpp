@@ -63,6 +63,11 @@ int main(int argc, char** argv) {
     std::printf("%s, %d P-S levels: %zu faces, %u vertices; t = %u, B = %u, %zu tiles, %.1f%% tiled\n", model.c_str(),
                 levels, r.surface.faceOffsets.size() - 1, tiled.refinedCount, tiled.doubleSteps, tiled.baseLevel,
                 tiled.tileCount(), 100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount));
+    options.perLevel = false;
+    const psub::Refinement lean = psub::refine(mesh, checked.connectivity, options);
+    std::printf("build: topology %.1f ms, per-level rows %.1f ms, tiled table %.1f ms; the lean build: topology %.1f ms, "
+                "tiled table %.1f ms\n",
+                r.topologyMs, r.perLevelMs, r.tiledMs, lean.topologyMs, lean.tiledMs);
     std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     std::vector<float> out(3 * std::size_t(tiled.refinedCount));
     const double bytes = 12.0 * tiled.refinedCount;

@@ -293,7 +293,8 @@ int main(int argc, char** argv) {
     be->footer(
         "What is measured, per model and per matched size (P-S levels with the face count of "
         "Catmull-Clark level k):\n"
-        "  build      psub::refine (topology + per-level table, + factorized table) against OpenSubdiv's\n"
+        "  build      psub::refine (topology + per-level table, + factorized table; the tiled rows: topology +\n"
+        "             the tiled table alone, its lean build) against OpenSubdiv's\n"
         "             TopologyRefinerFactory + RefineUniform + StencilTableFactory (factorized, cascading)\n"
         "  per frame  median and min of --frames frames of moving control points: psub-cpu-perlevel and\n"
         "             psub-cpu-factorized (1 thread and all) against osd-cpu and osd-omp (1 and all\n"

@@ -278,6 +278,11 @@ void Playback::draw(int index, Timings& t) {
 #endif
 }
 
+// Refined vertices, from whichever table was built (the forced tiled form has no per-level one).
+std::uint32_t refinedCount(const Refinement& r) {
+    return r.perLevel.levels.empty() && r.tiled.refinedCount > 0 ? r.tiled.refinedCount : r.perLevel.refinedCount();
+}
+
 void refineAnimated(Playback& p) {
     const PlayOptions& o = p.o;
     const Mesh& mesh = p.animated.mesh;
@@ -294,6 +299,7 @@ void refineAnimated(Playback& p) {
     options.boundary = o.boundary;
     options.factorized = o.form == kFormFactorized;
     options.tiled = o.form == kFormTiled || o.form == kFormAuto;
+    options.perLevel = o.form != kFormTiled;  // the forced tiled form builds only its own table (lean)
     p.refinement = refine(mesh, connectivity, options);
     if (o.verify) {
         Verifier v{refineTopology(mesh.faces, connectivity, preprocess, o.levels, {}, o.boundary), o.rules, {}, 0, 0};
@@ -301,7 +307,7 @@ void refineAnimated(Playback& p) {
         p.verifier = std::move(v);
     }
     p.control.resize(3 * std::size_t(mesh.faces.vertexCount));
-    p.refined.resize(3 * std::size_t(p.refinement.perLevel.refinedCount()));
+    p.refined.resize(3 * std::size_t(refinedCount(p.refinement)));
     p.normals.resize(p.refined.size());
 }
 
@@ -471,11 +477,12 @@ const char* formName(const Playback& p) {
 
 void report(const Playback& p, const Timings& t) {
     const PlayOptions& o = p.o;
-    const std::uint64_t faces = p.refinement.surface.faceOffsets.size() - 1;
+    const SurfaceTable& surface = p.form == TableForm::Tiled ? p.refinement.tiled.surface : p.refinement.surface;
+    const std::uint64_t faces = surface.faceOffsets.size() - 1;
     const char* backend = o.backend == Backend::Vulkan ? "vulkan" : "cpu";
     if (o.json) {
         Json json = {{"input", o.input}, {"animation", p.animated.name}, {"levels", o.levels},
-                     {"refined_faces", faces}, {"refined_vertices", p.refinement.perLevel.refinedCount()},
+                     {"refined_faces", faces}, {"refined_vertices", refinedCount(p.refinement)},
                      {"frames", t.frames.size()}, {"fps", framesPerSecond(t)}, {"backend", backend},
                      {"device", p.device}, {"form", formName(p)}, {"host_threads", p.hostThreads},
                      {"render", p.rendering() ? Json{{"width", o.width}, {"height", o.height}} : Json(nullptr)},
@@ -487,7 +494,7 @@ void report(const Playback& p, const Timings& t) {
     }
     std::printf("%s: %s, %d P-S step%s: %u control points -> %llu faces, %u vertices; %s on %s\n", o.input.c_str(),
                 p.animated.name.c_str(), o.levels, o.levels == 1 ? "" : "s", p.animated.mesh.faces.vertexCount,
-                (unsigned long long)faces, p.refinement.perLevel.refinedCount(), backend, p.device.c_str());
+                (unsigned long long)faces, refinedCount(p.refinement), backend, p.device.c_str());
     std::printf("Table form: %s (%s)\n", formName(p), p.formReason.c_str());
     if (o.backend == Backend::Vulkan)
         std::printf("CPU-side stages on %d thread%s%s\n", p.hostThreads, p.hostThreads == 1 ? "" : "s",

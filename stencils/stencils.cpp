@@ -3,6 +3,7 @@
 
 #include "psub/rules.h"
 #include "step_rows.h"
+#include "tiled_build.h"
 
 #include <omp.h>
 
@@ -182,9 +183,11 @@ struct StepRows {
 // Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
 void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity& connectivity, bool paired,
                     bool splitBoundary, std::span<const std::uint8_t> seamFaces, Rules rules,
-                    std::span<const char> inputCorners) {
+                    std::span<const char> inputCorners, std::span<const std::uint8_t> keep) {
     const StepRows step(faces, connectivity, paired, splitBoundary, seamFaces, inputCorners);
     const std::uint32_t childCount = step.childCount();
+    if (!keep.empty() && keep.size() != childCount) throw std::invalid_argument("appendStepRows: keep has the wrong size");
+    const auto made = [&](std::uint32_t d) { return keep.empty() || keep[d] != 0; };
 
     // Pass 1: the shape of every row; groups numbered as first met, with a one-entry cache
     // since neighbouring rows mostly share a shape.
@@ -195,6 +198,7 @@ void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity
     GroupKey lastKey{RowKind::Retained, ~0u, ~0u};
     std::uint32_t lastGroup = 0;
     for (std::uint32_t d = 0; d < childCount; ++d) {
+        if (!made(d)) continue;
         const GroupKey key = step.shape(d);
         if (key != lastKey) {
             auto [it, inserted] = firstMet.try_emplace(key, std::uint32_t(keys.size()));
@@ -231,6 +235,7 @@ void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity
     table.indices.resize(indexBegin);
     std::vector<std::uint64_t> filled(keys.size(), 0);
     for (std::uint32_t d = 0; d < childCount; ++d) {
+        if (!made(d)) continue;
         const std::uint32_t group = groupOfRow[d];
         const RowGroup& g = table.groups[position[group]];
         const std::uint64_t r = filled[group]++;
@@ -380,19 +385,57 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     Level parent{mesh.faces, connectivity};
     const std::vector<char> corners = inputCorners(mesh.faces, connectivity, options.rules);
     const int steps = options.levels + (out.preprocessed ? 1 : 0);
-    // The tiled form's plan, once the first quad level exists, its base level B (kept, a copy)
-    // and level N - 2 (kept: the lattices are walked there; for t = 1 it is level B).
+    // The tiled form: its plan once the first quad level exists, its blocks chosen on level B,
+    // its tiles placed before the last step's rows (level N - 2, where their lattices are
+    // walked, is kept until then). Without the per-level table (the lean build) its own rows
+    // are made here: levels up to B whole, then only those its fallback can need (labels,
+    // docs/tiled.md), the last level's only for the fallback's points.
+    const bool lean = options.tiled && !options.perLevel;
+    if (!options.perLevel && (!options.tiled || options.factorized))
+        throw std::invalid_argument("refine: only the tiled form can be built without the per-level table");
     const int firstQuadLevel = out.preprocessed && steps > 0 ? 1 : 0;
     TiledPlan plan{0, 0};
-    Level base, coarse;
-    const auto planTiles = [&](int k) {
-        if (options.tiled && k == firstQuadLevel) {
+    TileBlocks blocks;
+    Level coarse;
+    std::vector<std::uint8_t> labels;  // the lean build's, of the current level (B and on)
+    PerLevelTable leanRows;
+    leanRows.controlCount = mesh.faces.vertexCount;
+    std::vector<std::uint32_t> drawOf;
+    const auto planTiles = [&](int k) {  // parent is level k
+        if (!options.tiled) return;
+        const auto start = Clock::now();
+        if (k == firstQuadLevel) {
             plan = planTiled(std::size_t(steps), out.preprocessed, parent);
             plan.sides = options.tileSides;
+            out.tiled.controlCount = mesh.faces.vertexCount;
+            out.tiled.baseLevel = plan.baseLevel;
+            out.tiled.doubleSteps = plan.doubleSteps;
         }
-        if (options.tiled && plan.doubleSteps > 1 && k == int(plan.baseLevel)) base = parent;
+        if (k == int(plan.baseLevel) && plan.doubleSteps > 0) {
+            blocks = chooseTileBlocks(parent, plan);
+            if (lean) labels = baseLabels(parent, blocks);
+        }
+        out.tiledMs += ms(start);
     };
     const auto keepCoarse = [&](int k) { return options.tiled && plan.doubleSteps > 0 && k == steps - 1; };
+    // The lean build's rows of step k (parent is level k - 1).
+    const auto appendLeanRows = [&](int k, bool split) {
+        // Every row up to level B (when preprocessed the plan comes only after step 1), then
+        // those whose labels are within reach of the fallback, then the fallback's points.
+        std::vector<std::uint8_t> keep;  // empty: every row
+        const bool whole = k <= firstQuadLevel || k <= int(plan.baseLevel);
+        if (!whole && k < steps) {
+            labels = childLabels(parent, split, labels);
+            const std::uint8_t bound = std::uint8_t(1 + steps - k);
+            keep.resize(labels.size());
+            for (std::size_t v = 0; v < labels.size(); ++v) keep[v] = labels[v] <= bound;
+        } else if (!whole) {
+            keep.resize(drawOf.size());
+            for (std::size_t v = 0; v < drawOf.size(); ++v) keep[v] = drawOf[v] >= out.tiled.fallbackBegin;
+        }
+        appendStepRows(leanRows, parent.faces, parent.connectivity, out.preprocessed && k == 1, split, {}, options.rules,
+                       corners, keep);
+    };
     planTiles(0);
     // The face-varying channel follows the positions level by level (docs/face-varying.md).
     const bool uv = !mesh.uv.empty() && options.boundary == Boundary::Paper;
@@ -416,8 +459,24 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             out.uvMs += ms(start);
             start = Clock::now();
         }
-        appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules, corners);
-        out.perLevelMs += ms(start);
+        if (options.perLevel) {
+            appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules, corners);
+            out.perLevelMs += ms(start);
+        }
+        if (options.tiled && k == steps) {
+            start = Clock::now();
+            const bool coarseSplits = splitsBoundary(options.boundary, steps - 1 - (out.preprocessed ? 1 : 0));
+            const Index finestCount = parent.faces.vertexCount + parent.faces.faceCount() +
+                                      (split ? parent.connectivity.boundaryEdgeCount : 0);
+            drawOf = placeTiles(out.tiled, blocks, plan.doubleSteps > 0 ? &coarse : nullptr, coarseSplits, finestCount);
+            coarse = Level{};
+            out.tiledMs += ms(start);
+        }
+        if (lean) {
+            start = Clock::now();
+            appendLeanRows(k, split);
+            out.tiledMs += ms(start);
+        }
         start = Clock::now();
         if (k == steps && k > firstQuadLevel) {
             // The finest level: only its faces (the surface), no half-edges.
@@ -437,12 +496,13 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     }
     if (options.tiled) {
         const auto start = Clock::now();
-        const bool coarseSplits = splitsBoundary(options.boundary, steps - 1 - (out.preprocessed ? 1 : 0));
-        out.tiled = buildTiledTable(out.perLevel, plan.doubleSteps > 1 ? base : coarse, coarse, coarseSplits,
-                                    parent.faces, plan);
-        out.tiledMs = ms(start);
-        base = Level{};
-        coarse = Level{};
+        if (steps == 0) drawOf = placeTiles(out.tiled, blocks, nullptr, false, parent.faces.vertexCount);
+        if (lean)
+            keepFallbackRows(out.tiled, std::move(leanRows), drawOf);
+        else
+            keepFallbackRows(out.tiled, out.perLevel, drawOf);
+        setTiledSurface(out.tiled, parent.faces, drawOf);
+        out.tiledMs += ms(start);
     }
     parent.connectivity = {};
     if (uv) setFaceVaryingFaces(out.uv, uvLevel);
@@ -452,7 +512,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         out.uvMs += ms(start);
     }
     auto start = Clock::now();
-    out.surface = buildSurfaceTable(std::move(parent.faces));
+    if (options.perLevel) out.surface = buildSurfaceTable(std::move(parent.faces));
     out.perLevelMs += ms(start);
     if (options.factorized) {
         start = Clock::now();

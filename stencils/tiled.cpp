@@ -4,6 +4,7 @@
 // assigns drawing positions, and keeps the per-level rows the fallback points need.
 #include "psub/stencils.h"
 #include "psub/tiled.h"
+#include "tiled_build.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +15,7 @@ namespace psub {
 namespace {
 
 constexpr std::uint32_t kNone = ~0u;
+constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};  // rings of level-B faces around a block, per double step count
 
 // Moves on a quad mesh around regular vertices (interior, valence 4, four quads). rot(h) is
 // the next half-edge counter-clockwise around h's tail (the face order of refineFaces keeps
@@ -385,7 +387,6 @@ void appendRows(PerLevelTable& out, const PerLevelTable& in, std::size_t k, cons
 }  // namespace
 
 TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firstQuadLevel) {
-    static constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};
     const std::size_t quadLevels = levelCount - (preprocessed && levelCount > 0 ? 1 : 0);
     const Walker w{firstQuadLevel.faces, firstQuadLevel.connectivity};
     double irregular = 0;
@@ -402,45 +403,92 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
     return {std::uint32_t(levelCount) - 2 * t, t};
 }
 
-TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& coarse, bool coarseSplits,
-                           const Faces& finest, TiledPlan plan) {
-    static constexpr std::uint32_t kHalo[] = {0, 2, 3, 4};
-    if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
-        throw std::invalid_argument("buildTiledTable: the plan does not fit the per-level table");
-    TiledTable table;
-    table.controlCount = perLevel.controlCount;
-    table.refinedCount = perLevel.refinedCount();
-    table.baseLevel = plan.baseLevel;
-    table.doubleSteps = plan.doubleSteps;
-    table.halo = kHalo[plan.doubleSteps];
-    const std::uint32_t steps = 1u << plan.doubleSteps;
+TileBlocks chooseTileBlocks(const Level& base, const TiledPlan& plan) {
+    if (plan.doubleSteps > 3) throw std::invalid_argument("chooseTileBlocks: at most 3 double steps");
+    TileBlocks blocks;
+    blocks.halo = kHalo[plan.doubleSteps];
+    blocks.covered.assign(base.faces.faceCount(), 0);
+    if (plan.doubleSteps == 0) return blocks;
+    Walker w{base.faces, base.connectivity};
+    w.cacheRegular();
+    std::vector<std::uint32_t> sides;
+    if (plan.sides == TileSides::Every)
+        for (std::uint32_t side = TiledTable::kMaxLattice >> plan.doubleSteps; side > 0; side /= 2) sides.push_back(side);
+    else
+        sides = chooseSides(w, plan.doubleSteps, blocks.halo);
+    coverBlocks(w, sides, blocks.halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>& cells) {
+        blocks.side.push_back(side);
+        blocks.gather.insert(blocks.gather.end(), grid.begin(), grid.end());
+        for (Index c : cells) blocks.covered[c] = 1;
+        return true;
+    });
+    return blocks;
+}
 
-    // Tiles: the greedy cover with the sides chooseSides picks.
-    std::vector<std::uint32_t> drawOf(table.refinedCount, kNone);
+std::vector<std::uint8_t> baseLabels(const Level& base, const TileBlocks& blocks) {
+    const Faces& faces = base.faces;
+    std::vector<std::uint32_t> hops(faces.vertexCount, kNone);
+    std::vector<Index> queue;
+    std::vector<std::uint8_t> used(faces.vertexCount, 0), expanded(faces.faceCount(), 0);
+    for (Index f = 0; f < faces.faceCount(); ++f)
+        for (Index v : faces.face(f)) {
+            used[v] = 1;
+            if (!blocks.covered[f] && hops[v] == kNone) hops[v] = 0, queue.push_back(v);
+        }
+    for (Index v = 0; v < faces.vertexCount; ++v)
+        if (!used[v]) hops[v] = 0, queue.push_back(v);  // on no face: the fallback's
+    // Breadth first over the corners of each face (each face expanded once, from its first
+    // corner dequeued), as Walker::cacheRegular.
+    for (std::size_t i = 0; i < queue.size(); ++i)
+        for (Index h : base.connectivity.outgoingOf(queue[i])) {
+            const Index f = base.connectivity.faceOf[h];
+            if (expanded[f]) continue;
+            expanded[f] = 1;
+            for (Index u : faces.face(f))
+                if (hops[u] == kNone) hops[u] = hops[queue[i]] + 1, queue.push_back(u);
+        }
+    std::vector<std::uint8_t> labels(faces.vertexCount);
+    for (Index v = 0; v < faces.vertexCount; ++v) labels[v] = std::uint8_t(std::min<std::uint32_t>(hops[v], 255));
+    return labels;
+}
+
+std::vector<std::uint8_t> childLabels(const Level& parent, bool splitBoundary, const std::vector<std::uint8_t>& labels) {
+    const Faces& faces = parent.faces;
+    const Connectivity& c = parent.connectivity;
+    std::vector<std::uint8_t> child(labels);
+    child.reserve(std::size_t(faces.vertexCount) + faces.faceCount() + (splitBoundary ? c.boundaryEdgeCount : 0));
+    for (Index f = 0; f < faces.faceCount(); ++f) {
+        std::uint8_t least = 255;
+        for (Index v : faces.face(f)) least = std::min(least, labels[v]);
+        child.push_back(least);
+    }
+    if (splitBoundary)  // the boundary edges' points, in edge order (appendStepRows' numbering)
+        for (Index h : c.edgeHalfedge)
+            if (c.twin[h] == kNoIndex) child.push_back(std::min(labels[faces.verts[h]], labels[faces.verts[c.next[h]]]));
+    return child;
+}
+
+std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& blocks, const Level* coarse, bool coarseSplits,
+                                      std::uint32_t finestCount) {
+    table.refinedCount = finestCount;
+    table.halo = blocks.halo;
+    std::vector<std::uint32_t> drawOf(finestCount, kNone);
     std::uint32_t next = 0;
-    if (plan.doubleSteps > 0) {
-        Walker wb{base.faces, base.connectivity};
-        wb.cacheRegular();
-        // The lattices are walked on level N - 2 (for t = 1, level B itself).
-        const Walker wc{coarse.faces, coarse.connectivity};
-        const Walker& walker = &coarse == &base ? wb : wc;
-        const FinestNames names(coarse, coarseSplits);
-        // The levels must be the table's: B and N - 2 by their vertex counts, the split flag by
-        // the count of level N - 1 it implies.
-        const StencilLevel& coarseStep = perLevel.levels[perLevel.levels.size() - 2];
-        if (base.faces.vertexCount != perLevel.levels[plan.baseLevel].sourceCount ||
-            coarse.faces.vertexCount != coarseStep.sourceCount || names.middleVertices != coarseStep.destinationCount ||
-            finest.vertexCount != table.refinedCount)
-            throw std::invalid_argument("buildTiledTable: the levels given are not the per-level table's B, N - 2 and N");
-        std::vector<Index> points;
-        std::vector<std::uint32_t> sides;
-        if (plan.sides == TileSides::Every)
-            for (std::uint32_t side = TiledTable::kMaxLattice >> plan.doubleSteps; side > 0; side /= 2) sides.push_back(side);
-        else
-            sides = chooseSides(wb, plan.doubleSteps, table.halo);
-        coverBlocks(wb, sides, table.halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>&) {
-            const std::uint32_t g = side + 2 * table.halo + 1, lattice = side * steps;
-            if (!walkLattice(walker, names, grid, g, table.halo, steps, lattice, points)) return false;
+    if (!blocks.side.empty()) {
+        if (!coarse) throw std::logic_error("placeTiles: tiles without level N - 2");
+        const Walker walker{coarse->faces, coarse->connectivity};
+        const FinestNames names(*coarse, coarseSplits);
+        const std::uint32_t steps = 1u << table.doubleSteps;
+        std::vector<Index> grid, points;
+        std::size_t first = 0;
+        for (std::uint32_t side : blocks.side) {
+            const std::uint32_t g = side + 2 * blocks.halo + 1, lattice = side * steps;
+            grid.assign(blocks.gather.begin() + std::ptrdiff_t(first), blocks.gather.begin() + std::ptrdiff_t(first + g * g));
+            first += std::size_t(g) * g;
+            // A block's grid is regular and its vertices distinct on level B, so its lattice is
+            // on level N - 2: the walk cannot fail on a table's own levels.
+            if (!walkLattice(walker, names, grid, g, blocks.halo, steps, lattice, points))
+                throw std::logic_error("placeTiles: a tile's lattice does not walk on level N - 2");
             table.side.push_back(side);
             table.gather.insert(table.gather.end(), grid.begin(), grid.end());
             table.gatherBegin.push_back(table.gather.size());
@@ -450,7 +498,7 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
             };
             for (std::uint32_t y = 1; y < lattice; ++y)
                 for (std::uint32_t x = 1; x < lattice; ++x) {
-                    if (at(x, y) != kNone) throw std::logic_error("buildTiledTable: a tile's inner point is shared");
+                    if (at(x, y) != kNone) throw std::logic_error("placeTiles: a tile's inner point is shared");
                     at(x, y) = next++;
                 }
             const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
@@ -460,47 +508,62 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
             for (std::uint32_t y = 0; y <= lattice; ++y)
                 for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
             table.borderBegin.push_back(table.border.size());
-            return true;
-        });
-    }
-    table.side.shrink_to_fit();
-    table.fallbackBegin = next;
-    std::vector<std::uint8_t> needed(table.refinedCount, 0);
-    for (std::uint32_t v = 0; v < table.refinedCount; ++v)
-        if (drawOf[v] == kNone) {
-            drawOf[v] = next++;
-            needed[v] = 1;
         }
-    table.canonical.resize(table.refinedCount);
-    for (std::uint32_t v = 0; v < table.refinedCount; ++v) table.canonical[drawOf[v]] = v;
+    }
+    table.fallbackBegin = next;
+    for (std::uint32_t v = 0; v < finestCount; ++v)
+        if (drawOf[v] == kNone) drawOf[v] = next++;
+    table.canonical.resize(finestCount);
+    for (std::uint32_t v = 0; v < finestCount; ++v) table.canonical[drawOf[v]] = v;
+    return drawOf;
+}
 
-    // Rows: levels [0, B) whole; the rest only where the fallback needs them (marked from the
-    // finest level back to level B + 1). Without a tile, every row: the per-level table itself
-    // (the drawing order is then the canonical one).
+void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector<std::uint32_t>& drawOf) {
+    if (table.fallbackBegin == 0)
+        table.rows = std::move(rows);
+    else
+        keepFallbackRows(table, static_cast<const PerLevelTable&>(rows), drawOf);
+}
+
+void keepFallbackRows(TiledTable& table, const PerLevelTable& rows, const std::vector<std::uint32_t>& drawOf) {
+    // Without a tile every row is kept, in canonical order.
     if (table.fallbackBegin == 0) {
-        table.rows = perLevel;
-    } else {
-        const std::size_t levels = perLevel.levels.size();
-        std::vector<std::vector<std::uint8_t>> neededAt(levels + 1);
-        neededAt[levels] = std::move(needed);
-        for (std::size_t k = levels; k-- > std::size_t(plan.baseLevel) + 1;) {
-            const StencilLevel& level = perLevel.levels[k];
-            neededAt[k].assign(level.sourceCount, 0);
-            for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
-                const RowGroup& g = perLevel.groups[gi];
-                for (std::uint64_t r = g.rowBegin; r < g.rowBegin + g.rowCount; ++r) {
-                    if (!neededAt[k + 1][perLevel.destinations[r]]) continue;
-                    const std::uint64_t first = g.indexBegin + (r - g.rowBegin) * g.width;
-                    for (std::uint32_t j = 0; j < g.width; ++j) neededAt[k][perLevel.indices[first + j]] = 1;
-                }
+        table.rows = rows;
+        return;
+    }
+    // Levels [0, B) whole; the rest only where the fallback needs them, marked from the finest
+    // level back to level B + 1.
+    const std::size_t levels = rows.levels.size();
+    std::vector<std::vector<std::uint8_t>> neededAt(levels + 1);
+    neededAt[levels].resize(table.refinedCount);
+    for (std::uint32_t v = 0; v < table.refinedCount; ++v) neededAt[levels][v] = drawOf[v] >= table.fallbackBegin;
+    for (std::size_t k = levels; k-- > std::size_t(table.baseLevel) + 1;) {
+        const StencilLevel& level = rows.levels[k];
+        neededAt[k].assign(level.sourceCount, 0);
+        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+            const RowGroup& g = rows.groups[gi];
+            for (std::uint64_t r = g.rowBegin; r < g.rowBegin + g.rowCount; ++r) {
+                if (!neededAt[k + 1][rows.destinations[r]]) continue;
+                const std::uint64_t first = g.indexBegin + (r - g.rowBegin) * g.width;
+                for (std::uint32_t j = 0; j < g.width; ++j) neededAt[k][rows.indices[first + j]] = 1;
             }
         }
-        table.rows.controlCount = perLevel.controlCount;
-        for (std::size_t k = 0; k < levels; ++k)
-            appendRows(table.rows, perLevel, k, k < plan.baseLevel ? nullptr : &neededAt[k + 1],
-                       k + 1 == levels ? &drawOf : nullptr);
     }
+    table.rows = PerLevelTable{};
+    table.rows.controlCount = rows.controlCount;
+    for (std::size_t k = 0; k < levels; ++k) {
+        const bool fallback = k >= table.baseLevel;
+        appendRows(table.rows, rows, k, fallback ? &neededAt[k + 1] : nullptr, k + 1 == levels ? &drawOf : nullptr);
+        // `rows` may hold only some of a level's rows (refine's lean build): every point the
+        // fallback needs must have its own.
+        const StencilLevel& kept = table.rows.levels.back();
+        if (fallback && kept.rowEnd - kept.rowBegin !=
+                            std::uint64_t(std::count(neededAt[k + 1].begin(), neededAt[k + 1].end(), std::uint8_t(1))))
+            throw std::logic_error("keepFallbackRows: a point the fallback needs has no row on level " + std::to_string(k + 1));
+    }
+}
 
+void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<std::uint32_t>& drawOf) {
     // Faces over drawing positions, sorted (counting sort, stable) by their first drawn corner,
     // so that the normals' passes read positions and face normals mostly in order. The corners
     // are mapped in one pass in face order (in parallel); the sort then moves each face once.
@@ -536,6 +599,30 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
         faces.offsets[++faceStart[key]] = cornerStart[key];
     }
     table.surface = buildSurfaceTable(std::move(faces));
+}
+
+TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& coarse, bool coarseSplits,
+                           const Faces& finest, TiledPlan plan) {
+    if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
+        throw std::invalid_argument("buildTiledTable: the plan does not fit the per-level table");
+    TiledTable table;
+    table.controlCount = perLevel.controlCount;
+    table.baseLevel = plan.baseLevel;
+    table.doubleSteps = plan.doubleSteps;
+    if (plan.doubleSteps > 0) {
+        // The levels must be the table's: B and N - 2 by their vertex counts, the split flag by
+        // the count of level N - 1 it implies.
+        const StencilLevel& coarseStep = perLevel.levels[perLevel.levels.size() - 2];
+        if (base.faces.vertexCount != perLevel.levels[plan.baseLevel].sourceCount ||
+            coarse.faces.vertexCount != coarseStep.sourceCount ||
+            FinestNames(coarse, coarseSplits).middleVertices != coarseStep.destinationCount ||
+            finest.vertexCount != perLevel.refinedCount())
+            throw std::invalid_argument("buildTiledTable: the levels given are not the per-level table's B, N - 2 and N");
+    }
+    const std::vector<std::uint32_t> drawOf =
+        placeTiles(table, chooseTileBlocks(base, plan), &coarse, coarseSplits, perLevel.refinedCount());
+    keepFallbackRows(table, perLevel, drawOf);
+    setTiledSurface(table, finest, drawOf);
     return table;
 }
 

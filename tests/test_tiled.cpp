@@ -527,6 +527,94 @@ TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
 }
 
+// Every array of two tiled tables, compared whole.
+void expectSameTable(const TiledTable& a, const TiledTable& b) {
+    EXPECT_EQ(std::tie(a.controlCount, a.refinedCount, a.baseLevel, a.doubleSteps, a.halo, a.fallbackBegin),
+              std::tie(b.controlCount, b.refinedCount, b.baseLevel, b.doubleSteps, b.halo, b.fallbackBegin));
+    EXPECT_EQ(a.rows.controlCount, b.rows.controlCount);
+    ASSERT_EQ(a.rows.levels.size(), b.rows.levels.size());
+    for (std::size_t k = 0; k < a.rows.levels.size(); ++k) {
+        const StencilLevel &x = a.rows.levels[k], &y = b.rows.levels[k];
+        EXPECT_EQ(std::tie(x.sourceCount, x.destinationCount, x.groupBegin, x.groupEnd, x.rowBegin, x.rowEnd),
+                  std::tie(y.sourceCount, y.destinationCount, y.groupBegin, y.groupEnd, y.rowBegin, y.rowEnd)) << "level " << k;
+    }
+    ASSERT_EQ(a.rows.groups.size(), b.rows.groups.size());
+    for (std::size_t g = 0; g < a.rows.groups.size(); ++g) {
+        const RowGroup &x = a.rows.groups[g], &y = b.rows.groups[g];
+        EXPECT_EQ(std::tie(x.kind, x.n, x.m, x.width, x.rowBegin, x.rowCount, x.indexBegin, x.centre, x.edge, x.diagonal),
+                  std::tie(y.kind, y.n, y.m, y.width, y.rowBegin, y.rowCount, y.indexBegin, y.centre, y.edge, y.diagonal))
+            << "group " << g;
+    }
+    EXPECT_EQ(a.rows.destinations, b.rows.destinations);
+    EXPECT_EQ(a.rows.indices, b.rows.indices);
+    EXPECT_EQ(a.side, b.side);
+    EXPECT_EQ(a.gatherBegin, b.gatherBegin);
+    EXPECT_EQ(a.gather, b.gather);
+    EXPECT_EQ(a.output, b.output);
+    EXPECT_EQ(a.borderBegin, b.borderBegin);
+    EXPECT_EQ(a.border, b.border);
+    EXPECT_EQ(a.canonical, b.canonical);
+    EXPECT_EQ(a.surface.faceOffsets, b.surface.faceOffsets);
+    EXPECT_EQ(a.surface.faceVerts, b.surface.faceVerts);
+    EXPECT_EQ(a.surface.vertexOffsets, b.surface.vertexOffsets);
+    EXPECT_EQ(a.surface.vertexFaces, b.surface.vertexFaces);
+    EXPECT_EQ(a.uvFaceOffsets, b.uvFaceOffsets);
+    EXPECT_EQ(a.uvFaceVerts, b.uvFaceVerts);
+    EXPECT_EQ(a.uvFaceValues, b.uvFaceValues);
+}
+
+// The lean build (RefineOptions::perLevel = false: the tiled form's rows made only where its
+// fallback can need them, docs/tiled.md) makes the very table the full build copies from the
+// per-level rows: every model (unused and non-manifold vertices, triangles, boundaries), both
+// boundary modes, the paper and shape rules, every tile count, both side choices, 0 to 5 steps.
+TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
+    std::vector<std::string> models = test::allValidModels();
+    models.push_back("");  // a 30 x 20 torus
+    std::size_t tiles[2][4] = {};  // [boundary][double steps]
+    std::size_t fallbackPoints = 0;
+    for (const std::string& path : models)
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
+            for (Rules rules : {Rules::Paper, Rules::Shape})
+                for (TileSides sides : {TileSides::Every, TileSides::Cheapest})
+                    for (int levels = 0; levels <= (path.find("cow") != std::string::npos ? 3 : path.empty() ? 6 : 5); ++levels) {
+                        if (sides == TileSides::Cheapest && !path.empty() && rules == Rules::Shape) continue;
+                        SCOPED_TRACE((path.empty() ? "torus" : path) + " levels " + std::to_string(levels) + " " +
+                                     boundaryName(boundary) + " " + rulesName(rules) +
+                                     (sides == TileSides::Every ? " every side" : " cheapest sides"));
+                        const test::Loaded loaded = path.empty() ? loadTorus(30, 20) : test::load(path);
+                        RefineOptions options;
+                        options.levels = levels;
+                        options.boundary = boundary;
+                        options.rules = rules;
+                        options.tiled = true;
+                        options.tileSides = sides;
+                        const Refinement full = refine(loaded.mesh, loaded.checked.connectivity, options);
+                        options.perLevel = false;
+                        const Refinement lean = refine(loaded.mesh, loaded.checked.connectivity, options);
+                        expectSameTable(lean.tiled, full.tiled);
+                        EXPECT_TRUE(lean.perLevel.levels.empty());
+                        EXPECT_TRUE(lean.surface.faceVerts.empty());
+                        tiles[int(boundary)][lean.tiled.doubleSteps] += lean.tiled.tileCount();
+                        if (lean.tiled.tileCount() > 0) fallbackPoints += lean.tiled.refinedCount - lean.tiled.fallbackBegin;
+                    }
+    for (int boundary = 0; boundary < 2; ++boundary)
+        for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
+    EXPECT_GT(fallbackPoints, 0u);  // tiles beside fallback rows, not only all-tile tables
+}
+
+// Without the per-level table only the tiled form can be built.
+TEST(Tiled, OnlyTheTiledFormIsBuiltWithoutThePerLevelTable) {
+    const test::Loaded torus = loadTorus(12, 12);
+    RefineOptions options;
+    options.perLevel = false;
+    EXPECT_THROW(refine(torus.mesh, torus.checked.connectivity, options), std::invalid_argument);
+    options.tiled = true;
+    options.factorized = true;
+    EXPECT_THROW(refine(torus.mesh, torus.checked.connectivity, options), std::invalid_argument);
+    options.factorized = false;
+    EXPECT_NO_THROW(refine(torus.mesh, torus.checked.connectivity, options));
+}
+
 // The levels buildTiledTable walks and names the lattices from are checked against the table:
 // level N - 1 in place of N - 2, a wrong level B, or the wrong split flag on a boundary model
 // (the smooth boundary splits at odd P-S steps) is refused, not turned into a wrong table.

@@ -2,7 +2,8 @@
 // levels (either boundary mode), turned into all three table forms and evaluated (the tiled
 // one, a tile on every regular block, also with its normals in the tile pass); the counts must
 // match the closed form and the table forms must agree (the tiled one once put back in
-// canonical order); within the numeric-range policy the values are finite.
+// canonical order); the tiled form's lean build (no per-level table) must make the same table;
+// within the numeric-range policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -27,6 +28,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                                              r.preprocessed ? 3 : 2, options.boundary, r.preprocessed);
         if (r.perLevel.refinedCount() != expected.vertices || r.surface.faceOffsets.size() - 1 != expected.faces)
             std::abort();
+        {
+            psub::RefineOptions leanOptions = options;
+            leanOptions.factorized = false;
+            leanOptions.perLevel = false;
+            const psub::TiledTable lean = psub::refine(mesh, checked.connectivity, leanOptions).tiled;
+            if (lean.rows.destinations != r.tiled.rows.destinations || lean.rows.indices != r.tiled.rows.indices ||
+                lean.rows.levels.size() != r.tiled.rows.levels.size() || lean.canonical != r.tiled.canonical ||
+                lean.gather != r.tiled.gather || lean.border != r.tiled.border ||
+                lean.surface.faceVerts != r.tiled.surface.faceVerts || lean.fallbackBegin != r.tiled.fallbackBegin)
+                std::abort();
+        }
         psub::CpuEvaluator<double> perLevel(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
         psub::CpuEvaluator<double> factorized(r.perLevel, r.factorized, r.surface, psub::TableForm::Factorized, 3, 1);
         psub::CpuEvaluator<double> tiled(r.tiled, 3, 1);

@@ -92,6 +92,11 @@ struct RefineOptions {
     Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
     Boundary boundary = Boundary::Paper;    // Smooth: beyond the paper (psub/topology.h)
     bool tiled = false;                     // also build the tiled form (psub/tiled.h)
+    // The per-level table and the canonical surface (Refinement::perLevel, ::surface). false
+    // only with `tiled` (and no factorized table): the tiled form alone, whose fallback's rows
+    // are then made only where they can be needed, not copied from the full table (the lean
+    // build, docs/tiled.md: less time and memory where tiles cover much of the mesh).
+    bool perLevel = true;
     TileSides tileSides = TileSides::Cheapest;  // its tiles
     UvLinear uvLinear = UvLinear::Boundaries;  // the face-varying channel, when the mesh has one
 };

@@ -1,0 +1,50 @@
+// Internal to stencils/: the tiled table's build in pieces, so that refine can run them level
+// by level (docs/tiled.md, "The lean build"): the tiles' blocks chosen on level B, the labels
+// that bound which rows the fallback can need, the tiles placed on level N - 2, then the rows
+// the fallback needs and the surface in drawing order.
+#pragma once
+
+#include "psub/stencils.h"
+#include "psub/tiled.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace psub {
+
+// The greedy cover of level B (the plan's sides): each block's side and its g x g gathered
+// grid (g = side + 2 halo + 1), in cover order, and which faces the blocks cover.
+struct TileBlocks {
+    std::uint32_t halo = 0;
+    std::vector<std::uint32_t> side;
+    std::vector<Index> gather;          // the blocks' grids, one after the other
+    std::vector<std::uint8_t> covered;  // per level-B face
+};
+TileBlocks chooseTileBlocks(const Level& base, const TiledPlan& plan);
+
+// Per vertex of level B, the face hops to the nearest vertex of a face no block covers (0 on
+// one, and on no face at all), at most 255. The corners of one face differ by at most 1.
+std::vector<std::uint8_t> baseLabels(const Level& base, const TileBlocks& blocks);
+// The labels of the level one P-S step finer: a vertex keeps its own, a face's point takes the
+// least of its corners', a split boundary edge's point the lesser of its ends'. The corners of
+// every new face still differ by at most 1, so a row's sources are labelled at most 1 above
+// its destination (docs/tiled.md).
+std::vector<std::uint8_t> childLabels(const Level& parent, bool splitBoundary, const std::vector<std::uint8_t>& labels);
+
+// Walks each block's finest lattice on level N - 2 (`coarse`; none needed without blocks) and
+// fills `table`'s tiles, fallbackBegin and canonical (its doubleSteps already set). Returns the
+// drawing position of each of the finestCount finest vertices.
+std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& blocks, const Level* coarse, bool coarseSplits,
+                                      std::uint32_t finestCount);
+
+// table.rows from `rows` (levels [0, B) whole; from B on, at least every row the fallback needs):
+// the rows from B on that the fallback needs, the last level's destinations as drawing
+// positions (without a tile: every row, `rows` itself). std::logic_error when a needed row is
+// missing.
+void keepFallbackRows(TiledTable& table, const PerLevelTable& rows, const std::vector<std::uint32_t>& drawOf);
+void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector<std::uint32_t>& drawOf);
+
+// table.surface: the finest faces over drawing positions, ordered by their first drawn corner.
+void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<std::uint32_t>& drawOf);
+
+}  // namespace psub
