@@ -2,14 +2,19 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run.
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile]
-// With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf).
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build]
+// With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
+// "build", only the builds, ROUNDS times each in one process with psub's allocator settings
+// (the per-level table with its surface; the tiled form's lean build), for perf.
 #include "detail.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -57,6 +62,23 @@ int main(int argc, char** argv) {
     }
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
+    if (argc > 5 && std::string(argv[5]) == "build") {
+        mallopt(M_MMAP_THRESHOLD, 32 << 20);  // as cli/main.cpp's tuneAllocator
+        mallopt(M_TRIM_THRESHOLD, INT_MAX);
+        for (int round = 0; round < rounds; ++round) {
+            // One at a time: each build's memory is free again for the next.
+            options.tiled = false;
+            options.perLevel = true;
+            psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
+            std::printf("per-level build: topology %.1f ms, rows and surface %.1f ms; ", r.topologyMs, r.perLevelMs);
+            r = {};
+            options.tiled = true;
+            options.perLevel = false;
+            r = psub::refine(mesh, checked.connectivity, options);
+            std::printf("lean tiled build: topology %.1f ms, tiled table %.1f ms\n", r.topologyMs, r.tiledMs);
+        }
+        return 0;
+    }
     options.tiled = true;
     const psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
     const psub::TiledTable& tiled = r.tiled;

@@ -102,11 +102,13 @@ int runAndFinish(Run&& run) {
 // come from the heap instead, which is not given back, so the next level reuses the pages the
 // last one freed: the per-level build of the 1M-face torus 115-154 -> 93-107 ms (bench/README.md
 // "Session 14"), for a peak 3% higher (the cow at 7 steps 335 -> 345 MiB; the memory guard's
-// estimate allows for it).
+// estimate allows for it). The heap grows 64 MiB at a time, so that cli/huge_pages.cpp can
+// advise huge pages for what it has not touched yet.
 void tuneAllocator() {
 #if defined(__GLIBC__)
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
     mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
+    mallopt(M_TOP_PAD, 64 << 20);
 #endif
 }
 

@@ -18,14 +18,15 @@ std::uint64_t physicalMemory() {
 
 // Rough peak bytes of refining to `steps` topological steps: two levels of topology (about 44 B
 // per half-edge, 30 B per vertex, 8 B per face), plus every level's table rows, the finest
-// surface, the evaluator's level buffers (doubles), the OBJ text of the finest level and 16 MiB
-// for the program itself and the allocator's free pages (cli/main.cpp keeps them). With
-// `finestFacesOnly` (psub::refine) the finest level is its faces only (4 B per corner and per
-// face); OpenSubdiv's refiner gives it half-edges too. Measured peaks (`/usr/bin/time`,
-// `psub subdivide data/cow.obj`, 2026-12-03) against the estimates: P-S levels 1 / 4 / 6 / 7 / 8
-// 12.7 / 56.9 / 196.7 / 345 / 673 MiB against 21.5 / 63.4 / 206.8 / 398 / 781 MiB;
-// Catmull-Clark levels 1 / 2 / 3 / 4 14.9 / 36.5 / 122 / 462 MiB against 24.7 / 52.3 / 163 /
-// 604 MiB.
+// surface, the evaluator's level buffers (doubles), the OBJ text of the finest level; a tenth
+// more for huge pages (cli/huge_pages.cpp: memory is resident in 2 MiB pages, so partly used
+// ones count whole: the cow at 7 steps 345 -> 381 MiB), and 16 MiB for the program itself and
+// the allocator's free pages (cli/main.cpp keeps them). With `finestFacesOnly` (psub::refine)
+// the finest level is its faces only (4 B per corner and per face); OpenSubdiv's refiner gives
+// it half-edges too. Measured peaks (`/usr/bin/time`, `psub subdivide data/cow.obj`,
+// 2026-12-03, with huge pages) against the estimates: P-S levels 1 / 4 / 6 / 7 / 8 15.5 / 60.5
+// / 198.4 / 380.6 / 674.1 MiB against 22.1 / 68.1 / 225.9 / 436.3 / 857.2 MiB; Catmull-Clark
+// levels 1 / 2 / 3 / 4 17.1 / 40.5 / 129.1 / 472.4 MiB against 25.6 / 56.0 / 177.4 / 663.1 MiB.
 double estimateBytes(const Counts& input, int steps, Boundary boundary, bool preprocessed, bool finestFacesOnly) {
     auto halfedges = [](const Counts& c) { return 2.0 * double(c.edges) - double(c.boundaryEdges); };
     auto topology = [&](const Counts& c) { return 44 * halfedges(c) + 30 * double(c.vertices) + 8 * double(c.faces); };
@@ -40,7 +41,7 @@ double estimateBytes(const Counts& input, int steps, Boundary boundary, bool pre
     }
     bytes += 4 * (double(finest.faces) + 2 * halfedges(finest) + double(finest.vertices));  // surface
     bytes += 60 * double(finest.vertices) + 25 * double(finest.faces);  // OBJ text
-    return bytes + double(16 << 20);
+    return 1.1 * bytes + double(16 << 20);
 }
 
 std::string humanBytes(double bytes) {
