@@ -413,17 +413,18 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         }
         if (k == int(plan.baseLevel) && plan.doubleSteps > 0) {
             blocks = chooseTileBlocks(parent, plan);
-            if (lean) labels = baseLabels(parent, blocks);
+            if (lean && !blocks.side.empty()) labels = baseLabels(parent, blocks);
         }
         out.tiledMs += ms(start);
     };
     const auto keepCoarse = [&](int k) { return options.tiled && plan.doubleSteps > 0 && k == steps - 1; };
     // The lean build's rows of step k (parent is level k - 1).
     const auto appendLeanRows = [&](int k, bool split) {
-        // Every row up to level B (when preprocessed the plan comes only after step 1), then
-        // those whose labels are within reach of the fallback, then the fallback's points.
+        // Every row up to level B (when preprocessed the plan comes only after step 1) and
+        // without tiles; else those whose labels are within reach of the fallback, then the
+        // fallback's points.
         std::vector<std::uint8_t> keep;  // empty: every row
-        const bool whole = k <= firstQuadLevel || k <= int(plan.baseLevel);
+        const bool whole = k <= firstQuadLevel || k <= int(plan.baseLevel) || blocks.side.empty();
         if (!whole && k < steps) {
             labels = childLabels(parent, split, labels);
             const std::uint8_t bound = std::uint8_t(1 + steps - k);
