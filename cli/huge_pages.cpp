@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <new>
+#include <string_view>
 
 // Sanitizer builds (GCC's and clang's spellings) keep their own operator new.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
@@ -42,9 +43,20 @@ void advise(std::uintptr_t begin, std::uintptr_t end) {
     if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);  // advice: errors ignored
 }
 
+// PSUB_HUGE_PAGES=0 in the environment turns the advice off (to compare, or where huge pages
+// cost more than they save).
+bool adviseHugePages() {
+    static const bool advise = [] {
+        const char* value = std::getenv("PSUB_HUGE_PAGES");
+        return !(value && std::string_view(value) == "0");
+    }();
+    return advise;
+}
+
 void* allocate(std::size_t size) {
     void* block = std::malloc(size == 0 ? 1 : size);
     if (!block) throw std::bad_alloc();
+    if (!adviseHugePages()) return block;
     // The heap (blocks under malloc's mmap threshold), as it grows: up to its last whole 2 MiB
     // page, once. It grows 64 MiB at a time (M_TOP_PAD, cli/main.cpp), so most of what is
     // advised is not touched yet and faults in huge pages.
