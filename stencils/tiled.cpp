@@ -1,7 +1,8 @@
 // Builds the tiled table form (psub/tiled.h): finds regular blocks of level-B faces by walking
 // half-edges (their sides chosen by a cost model), maps their finest lattices to canonical
 // indices by walking the level two steps coarser (the finest level's topology is never needed),
-// assigns drawing positions, and keeps the per-level rows the fallback points need.
+// assigns drawing positions, and keeps the per-level rows the fallback points need; in pieces
+// (tiled_build.h) that refine also runs level by level for the lean build.
 #include "psub/stencils.h"
 #include "psub/tiled.h"
 #include "tiled_build.h"
