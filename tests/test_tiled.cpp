@@ -5,6 +5,7 @@
 #include "psub/rules.h"
 #include "psub/stencils.h"
 #include "test_support.h"
+#include "tiled_options.h"
 
 #include <gtest/gtest.h>
 
@@ -508,12 +509,8 @@ TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
             for (int levels = 2; levels <= (path.empty() ? 6 : 5); ++levels) {
                 SCOPED_TRACE((path.empty() ? "torus" : path) + " levels " + std::to_string(levels) + " " + boundaryName(boundary));
                 const test::Loaded loaded = path.empty() ? loadTorus(30, 20) : test::load(path);
-                RefineOptions options;
-                options.levels = levels;
-                options.boundary = boundary;
-                options.tiled = true;
-                options.tileSides = TileSides::Every;
-                const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
+                const Refinement r = refine(loaded.mesh, loaded.checked.connectivity,
+                                            test::tiledOptions(levels, boundary, Rules::Paper, TileSides::Every));
                 const Hierarchy h = test::refine(loaded, levels, Preprocess::Auto, boundary);
                 const TiledTable expected = buildTiledTable(h, buildPerLevelTable(h), TileSides::Every);
                 EXPECT_EQ(r.tiled.doubleSteps, expected.doubleSteps);
@@ -582,12 +579,7 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
                                      boundaryName(boundary) + " " + rulesName(rules) +
                                      (sides == TileSides::Every ? " every side" : " cheapest sides"));
                         const test::Loaded loaded = path.empty() ? loadTorus(30, 20) : test::load(path);
-                        RefineOptions options;
-                        options.levels = levels;
-                        options.boundary = boundary;
-                        options.rules = rules;
-                        options.tiled = true;
-                        options.tileSides = sides;
+                        RefineOptions options = test::tiledOptions(levels, boundary, rules, sides);
                         const Refinement full = refine(loaded.mesh, loaded.checked.connectivity, options);
                         options.perLevel = false;
                         const Refinement lean = refine(loaded.mesh, loaded.checked.connectivity, options);

@@ -6,6 +6,7 @@
 // refusals. Validation layer on; no device fails unless PSUB_ALLOW_NO_VULKAN=1.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
+#include "tiled_options.h"
 #include "vulkan_test_support.h"
 
 #include <gtest/gtest.h>
@@ -42,13 +43,7 @@ struct Tiled {
 Tiled tiledFor(test::Loaded loaded, int steps, Boundary boundary = Boundary::Paper, Rules rules = Rules::Paper,
                TileSides sides = TileSides::Cheapest) {
     Tiled t{std::move(loaded), {}};
-    RefineOptions options;
-    options.levels = steps;
-    options.boundary = boundary;
-    options.rules = rules;
-    options.tiled = true;
-    options.tileSides = sides;
-    t.r = refine(t.loaded.mesh, t.loaded.checked.connectivity, options);
+    t.r = refine(t.loaded.mesh, t.loaded.checked.connectivity, test::tiledOptions(steps, boundary, rules, sides));
     return t;
 }
 
