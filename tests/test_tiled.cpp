@@ -575,6 +575,9 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
                 for (TileSides sides : {TileSides::Every, TileSides::Cheapest})
                     for (int levels = 0; levels <= (path.find("cow") != std::string::npos ? 3 : path.empty() ? 6 : 5); ++levels) {
                         if (sides == TileSides::Cheapest && !path.empty() && rules == Rules::Shape) continue;
+                        // Under AddressSanitizer (memory errors, not tables) the paper rules with
+                        // every side: a third of the builds (the CI's time).
+                        if (test::kSanitized && (rules == Rules::Shape || sides == TileSides::Cheapest)) continue;
                         SCOPED_TRACE((path.empty() ? "torus" : path) + " levels " + std::to_string(levels) + " " +
                                      boundaryName(boundary) + " " + rulesName(rules) +
                                      (sides == TileSides::Every ? " every side" : " cheapest sides"));
