@@ -1,6 +1,7 @@
 // The tiled form's tile kernel: a tile's gathered level-B grid refined 2t P-S steps with the
-// regular masks over implicit grids (one value per vertex at a time, the last step only over
-// the tile's lattice), then its finest lattice written (inner points with streaming stores)
+// regular masks over implicit grids (one value per vertex at a time, the quincunx level a ring
+// of three rows; the last step row pair by row pair across the values, only over the tile's
+// lattice), each finished lattice row written at once (inner points with streaming stores)
 // and, on request, its inner points' unit normals from the lattice in cache (which points and
 // faces those are: tileNormalSets, for both evaluators). Sums pair
 // opposite neighbours, so two tiles that compute a shared point in their own frames (rotated or
@@ -26,32 +27,23 @@ namespace {
 // Grid sizes of a tile whose gathered grid is g x g: each double step maps n to 2n - 9.
 std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 
-// The first half of a double step of one value per vertex: the n x n grid `c` (spacing 1) ->
-// the quincunx level, qv (the V-points of c's inner (n-2)^2 vertices) and qf (the F-points of
-// its (n-1)^2 cells). Every loop runs over contiguous x, so that it vectorises; the F-point of
-// the cell whose first corner is (x, y) is made in the loop of the V-point of (x, y), whose
-// loads it reuses (the kernel is bound by its loads and stores, not its arithmetic).
+// Row j (1 <= j <= n - 2) of the quincunx level of the n x n grid `c` (spacing 1): v, the
+// V-points of c's inner vertices (x, j), v[x - 1] for x = 1 .. n - 2, and f, the F-points of
+// the cells whose first corner is (x, j), f[x] for x = 0 .. n - 2. The F-point of (x, j) is
+// made in the loop of the V-point of (x, j), whose loads it reuses (the kernel is bound by its
+// loads and stores, not its arithmetic).
 template <class T>
-[[gnu::always_inline]] inline void quincunxBody(const T* __restrict c, std::size_t n, T* __restrict qv,
-                                                T* __restrict qf) {
+[[gnu::always_inline]] inline void quincunxRow(const T* __restrict c, std::size_t n, std::size_t j, T* __restrict v,
+                                               T* __restrict f) {
     const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
-    const std::size_t nv = n - 2, nf = n - 1;
-    const auto cell = [&](const T* down, const T* up, std::size_t x) {
-        return quarter * ((down[x] + up[x + 1]) + (down[x + 1] + up[x]));
-    };
-    for (std::size_t x = 0; x + 1 < n; ++x) qf[x] = cell(c, c + n, x);  // row 0 of cells
-    for (std::size_t y = 1; y + 1 < n; ++y) {
-        const T* down = c + (y - 1) * n;
-        const T* mid = c + y * n;
-        const T* up = c + (y + 1) * n;
-        T* out = qv + (y - 1) * nv;
-        T* cells = qf + y * nf;
-        cells[0] = cell(mid, up, 0);
-        for (std::size_t x = 1; x + 1 < n; ++x) {
-            out[x - 1] = quarter * mid[x] + eighth * ((down[x] + up[x]) + (mid[x - 1] + mid[x + 1])) +
-                         sixteenth * ((down[x - 1] + up[x + 1]) + (down[x + 1] + up[x - 1]));
-            cells[x] = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));
-        }
+    const T* down = c + (j - 1) * n;
+    const T* mid = c + j * n;
+    const T* up = c + (j + 1) * n;
+    f[0] = quarter * ((mid[0] + up[1]) + (mid[1] + up[0]));
+    for (std::size_t x = 1; x + 1 < n; ++x) {
+        v[x - 1] = quarter * mid[x] + eighth * ((down[x] + up[x]) + (mid[x - 1] + mid[x + 1])) +
+                   sixteenth * ((down[x - 1] + up[x + 1]) + (down[x + 1] + up[x - 1]));
+        f[x] = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));
     }
 }
 
@@ -100,24 +92,40 @@ template <class T>
     next[2 * count] = acrossY(count + i0);
 }
 
-// The second half: the fine grid of spacing 1/2 (side 2n - 9, its point (0, 0) at c's (2, 2)),
-// only its points (p, q) with p, q in [from, from + 2 count] (`from` even), written row by row
-// to `f` (rows of 2 count + 1 values), two rows at a time (fineRows). Fine point (p, q) lies at
-// c's ((p + 4) / 2, (q + 4) / 2).
+// Fine rows q and (unless q is the last, from + 2 count) q + 1 of a double step of one value
+// per vertex: the n x n grid `c` (spacing 1) -> the fine grid of spacing 1/2 (side 2n - 9, its
+// point (0, 0) at c's (2, 2)), only its points (p, q) with p, q in [from, from + 2 count]
+// (`from` even), row q written to `out` (rows of 2 count + 1 values; row q + 1 after it). Fine
+// point (p, q) lies at c's ((p + 4) / 2, (q + 4) / 2). The quincunx rows j - 1, j, j + 1 they
+// read (j = q / 2 + 2) are made as needed into `ring` (3 (2n - 3) values: three rows of V- and
+// of F-points, row j in slot j mod 3), so the quincunx level never leaves the first-level
+// cache (as whole grids it took 2 x 66 KB at the largest tiles): call for q = from, from + 2,
+// ... in turn, with the same ring.
 template <class T>
-[[gnu::always_inline]] inline void fineBody(const T* __restrict qv, const T* __restrict qf, std::size_t n,
-                                            std::size_t from, std::size_t count, T* __restrict f) {
-    const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2;
-    const auto V = [&](std::size_t j) { return qv + (j - 1) * nv; };
-    const auto F = [&](std::size_t j) { return qf + j * nf; };
-    for (std::size_t q = from; q <= from + 2 * count; q += 2) {
-        const std::size_t j = q / 2 + 2;
-        T* out = f + (q - from) * width;
-        // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
-        const bool last = q == from + 2 * count;
-        fineRows(V(j), V(j - 1), V(j + 1), F(j), F(j - 1), last ? F(j) : F(j + 1), i0, count, out,
-                 last ? nullptr : out + width);
+[[gnu::always_inline]] inline void rowPairBody(const T* __restrict c, std::size_t n, std::size_t from,
+                                               std::size_t count, std::size_t q, T* __restrict out,
+                                               T* __restrict ring) {
+    const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2, j = q / 2 + 2;
+    T* const v[3] = {ring, ring + nv, ring + 2 * nv};
+    T* const cells[3] = {ring + 3 * nv, ring + 3 * nv + nf, ring + 3 * nv + 2 * nf};
+    const auto row = [&](std::size_t r) { quincunxRow(c, n, r, v[r % 3], cells[r % 3]); };
+    if (q == from) {
+        row(j - 1);
+        row(j);
     }
+    row(j + 1);
+    // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
+    const bool last = q == from + 2 * count;
+    fineRows(v[j % 3], v[(j - 1) % 3], v[(j + 1) % 3], cells[j % 3], cells[(j - 1) % 3],
+             last ? cells[j % 3] : cells[(j + 1) % 3], i0, count, out, last ? nullptr : out + width);
+}
+
+// The whole double step (rowPairBody's points), into `f`.
+template <class T>
+[[gnu::always_inline]] inline void doubleStepBody(const T* __restrict c, std::size_t n, std::size_t from,
+                                                  std::size_t count, T* __restrict f, T* __restrict ring) {
+    for (std::size_t q = from; q <= from + 2 * count; q += 2)
+        rowPairBody(c, n, from, count, q, f + (q - from) * (2 * count + 1), ring);
 }
 
 // Three planes of `count` values each -> count xyz triples.
@@ -170,6 +178,37 @@ template <class T>
     }
 }
 
+// Values `done` to `count` of `from` to the same places of `to`, with streaming (non-temporal)
+// stores where `to` is aligned to the vector: a tile's points are written once and not read
+// again in the frame. Unless `last`, what is short of a whole vector at the end is left for the
+// next call; returns how far it wrote (the next call's `done`). One variant per instruction set
+// (PSUB_STREAM_COPY below: 16-, 32- and 64-byte stores, a quarter as many store instructions
+// at 64 as at 16 for the same lines).
+#if defined(__SSE2__)
+#define PSUB_STREAM_COPY(NAME, TARGET, BYTES, FLOATS, DOUBLES)                                                    \
+    template <class T>                                                                                           \
+    TARGET std::size_t NAME##StreamCopy(const T* from, std::size_t done, std::size_t count, T* to, bool last) {  \
+        std::size_t i = done;                                                                                    \
+        for (; i < count && reinterpret_cast<std::uintptr_t>(to + i) % BYTES != 0; ++i) to[i] = from[i];        \
+        if constexpr (std::is_same_v<T, float>)                                                                  \
+            for (; i + BYTES / 4 <= count; i += BYTES / 4) FLOATS;                                               \
+        else if constexpr (std::is_same_v<T, double>)                                                            \
+            for (; i + BYTES / 8 <= count; i += BYTES / 8) DOUBLES;                                              \
+        if (!last) return i;                                                                                     \
+        for (; i < count; ++i) to[i] = from[i];                                                                  \
+        _mm_sfence();                                                                                            \
+        return count;                                                                                            \
+    }
+PSUB_STREAM_COPY(baseline, , 16, _mm_stream_ps(to + i, _mm_loadu_ps(from + i)),
+                 _mm_stream_pd(to + i, _mm_loadu_pd(from + i)))
+#else
+template <class T>
+std::size_t baselineStreamCopy(const T* from, std::size_t done, std::size_t count, T* to, bool) {
+    std::copy(from + done, from + count, to + done);
+    return count;
+}
+#endif
+
 // The kernel's steps, compiled once per instruction set (AVX-512, AVX2 and the x86-64
 // baseline: the bodies above are inlined into each variant and vectorised for its target),
 // one set chosen at run time (tileKernelInstructions; tests force each in turn). No fused
@@ -177,21 +216,24 @@ template <class T>
 // multiply-adds of its own), so all give the same bits.
 template <class T>
 struct TileSteps {
-    void (*quincunx)(const T* c, std::size_t n, T* qv, T* qf);
-    void (*fine)(const T* qv, const T* qf, std::size_t n, std::size_t from, std::size_t count, T* f);
+    void (*doubleStep)(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f, T* ring);
+    void (*rowPair)(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q, T* out, T* ring);
     void (*quadNormals)(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx, T* ny, T* nz);
     void (*vertexNormals)(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny, T* nz);
     void (*interleave3)(const T* x, const T* y, const T* z, std::size_t count, T* out);
+    std::size_t (*streamCopy)(const T* from, std::size_t done, std::size_t count, T* to, bool last);
 };
 
 #define PSUB_TILE_STEPS(NAME, TARGET)                                                                            \
     template <class T>                                                                                           \
-    TARGET void NAME##Quincunx(const T* c, std::size_t n, T* qv, T* qf) {                                       \
-        quincunxBody(c, n, qv, qf);                                                                              \
+    TARGET void NAME##DoubleStep(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f,          \
+                                 T* ring) {                                                                      \
+        doubleStepBody(c, n, from, count, f, ring);                                                              \
     }                                                                                                            \
     template <class T>                                                                                           \
-    TARGET void NAME##Fine(const T* qv, const T* qf, std::size_t n, std::size_t from, std::size_t count, T* f) { \
-        fineBody(qv, qf, n, from, count, f);                                                                     \
+    TARGET void NAME##RowPair(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q,    \
+                              T* out, T* ring) {                                                                 \
+        rowPairBody(c, n, from, count, q, out, ring);                                                            \
     }                                                                                                            \
     template <class T>                                                                                           \
     TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,    \
@@ -208,16 +250,21 @@ struct TileSteps {
         interleave3Body(x, y, z, count, out);                                                                    \
     }                                                                                                            \
     template <class T>                                                                                           \
-    constexpr TileSteps<T> NAME##Steps{&NAME##Quincunx<T>, &NAME##Fine<T>, &NAME##QuadNormals<T>,                \
-                                       &NAME##VertexNormals<T>, &NAME##Interleave3<T>};
+    constexpr TileSteps<T> NAME##Steps{&NAME##DoubleStep<T>, &NAME##RowPair<T>, &NAME##QuadNormals<T>,          \
+                                       &NAME##VertexNormals<T>, &NAME##Interleave3<T>, &NAME##StreamCopy<T>};
 
 PSUB_TILE_STEPS(baseline, )
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PSUB_TILE_X86 1
+PSUB_STREAM_COPY(avx2, __attribute__((target("avx2"))), 32, _mm256_stream_ps(to + i, _mm256_loadu_ps(from + i)),
+                 _mm256_stream_pd(to + i, _mm256_loadu_pd(from + i)))
+PSUB_STREAM_COPY(avx512, __attribute__((target("avx512f"))), 64, _mm512_stream_ps(to + i, _mm512_loadu_ps(from + i)),
+                 _mm512_stream_pd(to + i, _mm512_loadu_pd(from + i)))
 PSUB_TILE_STEPS(avx2, __attribute__((target("avx2"))))
 PSUB_TILE_STEPS(avx512, __attribute__((target("avx512f"))))
 #endif
 #undef PSUB_TILE_STEPS
+#undef PSUB_STREAM_COPY
 
 // The instruction sets, best first, and which of them runs (-1: not chosen yet, the best
 // this CPU has on first use).
@@ -254,24 +301,6 @@ const TileSteps<T>& steps() {
     }
 }
 
-// `count` values from `from` to `to` with streaming (non-temporal) stores where `to` is
-// 16-byte aligned: a tile's points are written once and not read again in the frame.
-template <class T>
-void streamCopy(const T* from, std::size_t count, T* to) {
-#if defined(__SSE2__)
-    std::size_t i = 0;
-    for (; i < count && reinterpret_cast<std::uintptr_t>(to + i) % 16 != 0; ++i) to[i] = from[i];
-    if constexpr (std::is_same_v<T, float>)
-        for (; i + 4 <= count; i += 4) _mm_stream_ps(to + i, _mm_loadu_ps(from + i));
-    else if constexpr (std::is_same_v<T, double>)
-        for (; i + 2 <= count; i += 2) _mm_stream_pd(to + i, _mm_loadu_pd(from + i));
-    for (; i < count; ++i) to[i] = from[i];
-    _mm_sfence();
-#else
-    std::copy_n(from, count, to);
-#endif
-}
-
 // The largest grid side any step of any tile of `table` may use (its largest tiles).
 std::uint32_t largestGrid(const TiledTable& table) {
     if (table.doubleSteps == 0) return 0;
@@ -295,25 +324,32 @@ bool setTileKernelInstructions(std::string_view name) {
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
-    return (4 + std::size_t(width)) * n * n + 2 * std::max<std::size_t>(width, 3) * side * side + 9 * side;
+    return (2 + 2 * std::size_t(width)) * n * n + 6 * std::size_t(width) * n +
+           (2 * std::size_t(width) + 3) * side * side + 9 * side;
 }
 
-// Scratch: a, b, qv, qf (one value's grids), the gathered grid of each value, its finest
-// lattice (L + 1)^2 per value, the inner points as packed values (then their normals), two
-// rows of quad normals and one of unit normals.
+// Scratch: a, b (one value's grids between double steps), each value's grid before the last
+// double step, each value's ring of quincunx rows (rowPairBody), the gathered grid of each
+// value, its finest lattice (L + 1)^2 per value, the inner points as packed values and their
+// packed normals, two rows of quad normals and one of unit normals. The last double step runs row
+// pair by row pair across the values, and each inner row it finishes is packed and its
+// streaming stores issued at once (the normals of the rows below too), so that they drain
+// while the next rows are computed.
 template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   const TileNormals<T>& normals, T* scratch, T* lattice) {
     const std::size_t largest = largestGrid(table), area = largest * largest,
                       plane = std::size_t(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1);
-    T *a = scratch, *b = scratch + area, *qv = scratch + 2 * area, *qf = scratch + 3 * area;
-    T* inputs = scratch + 4 * area;          // the gathered grid of each value
+    T *a = scratch, *b = scratch + area, *beforeLast = scratch + 2 * area;
+    T* quincunxRows = beforeLast + width * area;    // 6 largest values per value
+    T* inputs = quincunxRows + 6 * width * largest;  // the gathered grid of each value
     T* finals = inputs + width * area;       // the finest lattice of each value
     T* packed = finals + width * plane;      // the inner points, `width` values each
-    T* quads = packed + std::max<std::uint32_t>(width, 3) * plane;  // two rows of quad normals, 3 planes each
+    T* packedNormals = packed + width * plane;  // the inner points' normals
+    T* quads = packedNormals + 3 * plane;    // two rows of quad normals, 3 planes each
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
-    const auto [quincunx, fine, quadNormals, vertexNormals, interleave3] = steps<T>();
+    const auto [doubleStep, rowPair, quadNormals, vertexNormals, interleave3, streamCopy] = steps<T>();
     const std::size_t points = std::size_t(g) * g;
     if (width == 3) {
         for (std::size_t i = 0; i < points; ++i) {
@@ -329,69 +365,85 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md); only the
     // last step's (L + 1)^2 lattice points are computed.
     const std::size_t r0 = (std::size_t(table.halo) << t) + 4 - (std::size_t(4) << t), side = L + 1;
-    for (std::uint32_t c = 0; c < width; ++c) {
-        const T* from = inputs + c * area;
-        std::size_t n = g;
-        for (std::uint32_t s = 0; s < t; ++s) {
-            quincunx(from, n, qv, qf);
-            if (s + 1 == t) {
-                fine(qv, qf, n, r0, L / 2, finals + c * plane);
-            } else {
-                T* to = s % 2 == 0 ? a : b;
-                fine(qv, qf, n, 0, (nextSize(std::uint32_t(n)) - 1) / 2, to);
+    std::size_t n = g;  // the grid's side before the last double step
+    if (t > 1) {
+        for (std::uint32_t c = 0; c < width; ++c) {
+            const T* from = inputs + c * area;
+            for (std::uint32_t s = 0, m = g; s + 1 < t; ++s, m = nextSize(m)) {
+                T* to = s + 2 == t ? beforeLast + c * area : s % 2 == 0 ? a : b;
+                doubleStep(from, m, 0, (nextSize(m) - 1) / 2, to, quincunxRows);
                 from = to;
             }
-            n = nextSize(std::uint32_t(n));
         }
+        for (std::uint32_t s = 0; s + 1 < t; ++s) n = nextSize(std::uint32_t(n));
     }
+    const T* lastInputs = t > 1 ? beforeLast : inputs;
     const auto at = [&](std::uint32_t c, std::uint32_t y, std::uint32_t x) { return finals[c * plane + y * side + x]; };
+    const std::uint32_t begin = table.output[k];
+    const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
+    T* const destination = lattice ? nullptr : refined + std::size_t(begin) * width;
+    T* out = packed;  // the packed inner rows so far; `streamed` of them written
+    std::size_t streamed = 0;
+    // The inner points' normals, from the lattice's first three values, row by row as the
+    // lattice's rows are made: quad normals of row r (lattice rows r and r + 1), then the unit
+    // normals of inner row r from quad rows r - 1 and r; rows of quad normals below `quadRow`
+    // are made, and `normalsStreamed` values of the packed normals written.
+    const std::size_t stride = 3 * std::size_t(side);
+    T* rows[2] = {quads, quads + stride};
+    T* unit = quads + 2 * stride;  // one row's unit normals, 3 planes
+    std::uint32_t quadRow = 0;
+    std::size_t normalsStreamed = 0;
+    const std::uint32_t* ring = normals.ringFaces;
+    // Row r of quad normals: its ring quads' to their faces (all of rows 0 and L - 1, the ends of
+    // the others).
+    const auto toFaces = [&](const T* q, std::uint32_t r) {
+        if (!normals.faceNormals) return;
+        for (std::uint32_t i = 0; i < L; i += (r == 0 || r + 1 == L) ? 1 : L - 1) {
+            T* f = normals.faceNormals + 4 * std::size_t(*ring++);
+            f[0] = q[i], f[1] = q[side + i], f[2] = q[2 * side + i], f[3] = 0;
+        }
+    };
+    const auto normalRowsTo = [&](std::uint32_t last, bool finish) {
+        for (; quadRow <= last; ++quadRow) {
+            const std::uint32_t r = quadRow;
+            T* hi = rows[r % 2];
+            const std::size_t at0 = std::size_t(r) * side;
+            quadNormals(finals + at0, finals + plane + at0, finals + 2 * plane + at0, side, L, hi, hi + side,
+                        hi + 2 * side);
+            toFaces(hi, r);
+            if (r == 0) continue;
+            vertexNormals(rows[(r - 1) % 2], hi, side, L, unit, unit + side, unit + 2 * side);
+            interleave3(unit, unit + side, unit + 2 * side, L - 1, packedNormals + 3 * std::size_t(r - 1) * (L - 1));
+        }
+        normalsStreamed = streamCopy(packedNormals, normalsStreamed, 3 * std::size_t(L - 1) * (quadRow - 1),
+                                     normals.normals + 3 * std::size_t(begin), finish);
+    };
+    for (std::uint32_t y = 0; y <= L; y += 2) {  // lattice rows y and y + 1 (fine rows r0 + y, ...)
+        for (std::uint32_t c = 0; c < width; ++c)
+            rowPair(lastInputs + c * area, n, r0, L / 2, r0 + y, finals + c * plane + std::size_t(y) * side,
+                    quincunxRows + 6 * c * largest);
+        if (lattice) continue;
+        for (std::uint32_t row = std::max(y, 1u); row <= std::min(y + 1, L - 1); ++row) {
+            if (width == 3) {
+                const T* first = finals + row * side + 1;
+                interleave3(first, first + plane, first + 2 * plane, L - 1, out);
+                out += 3 * std::size_t(L - 1);
+            } else {
+                for (std::uint32_t x = 1; x < L; ++x)
+                    for (std::uint32_t c = 0; c < width; ++c) *out++ = at(c, row, x);
+            }
+        }
+        streamed = streamCopy(packed, streamed, std::size_t(out - packed), destination, false);
+        if (normals.normals && y > 0) normalRowsTo(std::min(y, L - 1), false);
+    }
     if (lattice) {
         for (std::uint32_t y = 0; y <= L; ++y)
             for (std::uint32_t x = 0; x <= L; ++x)
                 for (std::uint32_t c = 0; c < width; ++c) lattice[(std::size_t(y) * side + x) * width + c] = at(c, y, x);
         return;
     }
-    const std::uint32_t begin = table.output[k];
-    const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
-    T* out = packed;
-    for (std::uint32_t y = 1; y < L; ++y) {
-        if (width == 3) {
-            const T* row = finals + y * side + 1;
-            interleave3(row, row + plane, row + 2 * plane, L - 1, out);
-            out += 3 * std::size_t(L - 1);
-        } else {
-            for (std::uint32_t x = 1; x < L; ++x)
-                for (std::uint32_t c = 0; c < width; ++c) *out++ = at(c, y, x);
-        }
-    }
-    streamCopy(packed, std::size_t(out - packed), refined + std::size_t(begin) * width);
-    if (normals.normals) {  // the inner points' normals, from the lattice's first three values
-        const std::size_t stride = 3 * std::size_t(side);
-        T* rows[2] = {quads, quads + stride};
-        const T *x = finals, *y = finals + plane, *z = finals + 2 * plane;
-        // Row r of quad normals: its ring quads' to their faces (all of rows 0 and L - 1, the
-        // ends of the others).
-        const std::uint32_t* ring = normals.ringFaces;
-        const auto toFaces = [&](const T* q, std::uint32_t r) {
-            if (!normals.faceNormals) return;
-            for (std::uint32_t i = 0; i < L; i += (r == 0 || r + 1 == L) ? 1 : L - 1) {
-                T* f = normals.faceNormals + 4 * std::size_t(*ring++);
-                f[0] = q[i], f[1] = q[side + i], f[2] = q[2 * side + i], f[3] = 0;
-            }
-        };
-        quadNormals(x, y, z, side, L, rows[0], rows[0] + side, rows[0] + 2 * side);
-        toFaces(rows[0], 0);
-        T* unit = quads + 2 * stride;  // one row's unit normals, 3 planes
-        for (std::uint32_t r = 1; r < L; ++r) {
-            T* lo = rows[(r - 1) % 2];
-            T* hi = rows[r % 2];
-            quadNormals(x + r * side, y + r * side, z + r * side, side, L, hi, hi + side, hi + 2 * side);
-            toFaces(hi, r);
-            vertexNormals(lo, hi, side, L, unit, unit + side, unit + 2 * side);
-            interleave3(unit, unit + side, unit + 2 * side, L - 1, packed + 3 * std::size_t(r - 1) * (L - 1));
-        }
-        streamCopy(packed, 3 * std::size_t(L - 1) * (L - 1), normals.normals + 3 * std::size_t(begin));
-    }
+    streamCopy(packed, streamed, std::size_t(out - packed), destination, true);
+    if (normals.normals) normalRowsTo(L - 1, true);
     const std::uint32_t* border = table.border.data() + table.borderBegin[k];
     std::size_t e = 0;
     for (std::uint32_t y = 0; y <= L; ++y)
