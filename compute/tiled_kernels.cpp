@@ -349,7 +349,15 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     T* quads = packedNormals + 3 * plane;    // two rows of quad normals, 3 planes each
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
-    const auto [doubleStep, rowPair, quadNormals, vertexNormals, interleave3, streamCopy] = steps<T>();
+    // Plain copies, not a structured binding: lambdas below call them, and clang before 16
+    // does not let a lambda capture a structured binding.
+    const TileSteps<T>& chosen = steps<T>();
+    const auto doubleStep = chosen.doubleStep;
+    const auto rowPair = chosen.rowPair;
+    const auto quadNormals = chosen.quadNormals;
+    const auto vertexNormals = chosen.vertexNormals;
+    const auto interleave3 = chosen.interleave3;
+    const auto streamCopy = chosen.streamCopy;
     const std::size_t points = std::size_t(g) * g;
     if (width == 3) {
         for (std::size_t i = 0; i < points; ++i) {
