@@ -64,6 +64,43 @@ struct Walker {
                     if (clearance[u] == kNone) clearance[u] = clearance[queue[i]] + 1, queue.push_back(u);
             }
     }
+    // Per side, when cached (cacheCentres): whether the vertex is within side / 2 face hops of
+    // a vertex whose clearance exceeds halo + side / 2, as the centre of a block of that side
+    // must. A block's centre is side / 2 hops from its first corner, so no block of that side
+    // starts at a vertex without the flag: walkBlock turns it away before walking.
+    std::vector<std::vector<std::uint8_t>> nearCentre = {};
+
+    void cacheCentres(const std::vector<std::uint32_t>& sides, std::uint32_t halo) {
+        for (std::uint32_t side : sides) {
+            if (side < nearCentre.size() && !nearCentre[side].empty()) continue;
+            if (side >= nearCentre.size()) nearCentre.resize(side + 1);
+            // Breadth first, side / 2 hops deep, from every vertex with that clearance (the
+            // same face expansion as cacheRegular's).
+            std::vector<std::uint32_t> hops(faces.vertexCount, kNone);
+            std::vector<Index> queue;
+            std::vector<std::uint8_t> expanded(faces.faceCount(), 0);
+            for (Index v = 0; v < faces.vertexCount; ++v)
+                if (clearance[v] != kNone && clearance[v] > halo + side / 2) hops[v] = 0, queue.push_back(v);
+                else if (clearance[v] == kNone) hops[v] = 0, queue.push_back(v);  // no irregular vertex at all
+            for (std::size_t i = 0; i < queue.size(); ++i) {
+                if (hops[queue[i]] >= side / 2) continue;
+                for (Index h : c.outgoingOf(queue[i])) {
+                    const Index f = c.faceOf[h];
+                    if (expanded[f]) continue;
+                    expanded[f] = 1;
+                    for (Index u : faces.face(f))
+                        if (hops[u] == kNone) hops[u] = hops[queue[i]] + 1, queue.push_back(u);
+                }
+            }
+            std::vector<std::uint8_t> near(faces.vertexCount);
+            for (Index v = 0; v < faces.vertexCount; ++v) near[v] = hops[v] != kNone;
+            nearCentre[side] = std::move(near);
+        }
+    }
+    bool mayCentre(Index v, std::uint32_t side) const {
+        return side >= nearCentre.size() || nearCentre[side].empty() || nearCentre[side][v] != 0;
+    }
+
     std::uint32_t largestClearance() const {
         return clearance.empty() ? kNone : *std::max_element(clearance.begin(), clearance.end());
     }
@@ -117,7 +154,7 @@ bool walkBlock(const Walker& w, Index f, std::uint32_t side, std::uint32_t halo,
     if (w.faces.faceSize(f) != 4) return false;
     const std::uint32_t g = side + 2 * halo + 1;
     Index v = w.faces.verts[w.faces.offsets[f]], hx = w.faces.offsets[f];
-    if (!w.regular(v)) return false;
+    if (!w.regular(v) || !w.mayCentre(v, side)) return false;
     // First the grid's centre, (g - 1) / 2 = halo + side / 2 on each axis. It is side / 2 face
     // hops from v, so its clearance is within side / 2 of v's: v's must exceed the halo, and
     // where v's exceeds halo + side the centre's is large enough without walking there (the
@@ -288,13 +325,13 @@ void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::
         }
 }
 
-// The cost model of chooseSides, in values the CPU tile kernel computes (per vertex value).
+// The cost model of cheapestCover, in values the CPU tile kernel computes (per vertex value).
 // A tile: each double step a quincunx pass over an n x n grid's (n - 2)^2 + (n - 1)^2 points
 // and a fine pass over the (2n - 9)^2 grid, the last one only over the (L + 1)^2 lattice, plus
 // a fixed cost per tile; a finest point no tile has (the per-level rows of every level): a
 // few values. Both constants measured on the 2-core EPYC VM of bench/README.md ("Session 9").
 constexpr double kTileFixedCost = 750, kFallbackPointCost = 6;
-// The largest level B on which chooseSides tries every side (about 0.07 s more there).
+// The largest level B on which cheapestCover tries every side (about 0.07 s more there).
 constexpr Index kEverySideFaces = 1 << 13;
 
 double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
@@ -307,20 +344,33 @@ double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
     return values;
 }
 
-// The sides of the greedy cover: S, S / 2, S / 4, ... while a tile of that side costs less
+// One greedy cover (coverBlocks) with `sides`, its blocks kept.
+TileBlocks coverWith(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo) {
+    TileBlocks blocks;
+    blocks.halo = halo;
+    blocks.covered.assign(w.faces.faceCount(), 0);
+    coverBlocks(w, sides, halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>& cells) {
+        blocks.side.push_back(side);
+        blocks.gather.insert(blocks.gather.end(), grid.begin(), grid.end());
+        for (Index c : cells) blocks.covered[c] = 1;
+        return true;
+    });
+    return blocks;
+}
+
+// The cheapest greedy cover: sides S, S / 2, S / 4, ... while a tile of that side costs less
 // than its points' rows, S any side from the largest (kMaxLattice / 2^t) down to 3/8 of it
 // (past kEverySideFaces only the largest and 3/4, 1/2 and 3/8 of it), the one whose cover
-// costs least (tileCost, and the fallback's points); none when no side is
-// worth a tile. A regular region whose side is no multiple of the largest would otherwise get
-// strips of small tiles (a 36 x 36 torus at t = 2: 32, 16 and 4 where four tiles of 18 cost
-// least), and small regular regions tiles dearer than their rows (Spot at 9 steps: 4,089
-// tiles, most of a few faces, made the frame twice as slow as the per-level rows). A side
-// whose cover is no cheaper than a larger one's is not kept: ties keep the larger tiles.
-std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::uint32_t halo) {
+// costs least (tileCost, and the fallback's points); no block when no side is worth a tile.
+// A regular region whose side is no multiple of the largest would otherwise get strips of
+// small tiles (a 36 x 36 torus at t = 2: 32, 16 and 4 where four tiles of 18 cost least), and
+// small regular regions tiles dearer than their rows (Spot at 9 steps: 4,089 tiles, most of a
+// few faces, made the frame twice as slow as the per-level rows). A cover no cheaper than one
+// with a larger first side is not kept: ties keep the larger tiles. Each cover tried is kept
+// whole, so the one chosen is not walked again.
+TileBlocks cheapestCover(Walker& w, std::uint32_t t, std::uint32_t halo) {
     const std::uint32_t largest = TiledTable::kMaxLattice >> t;
     const double finestPerFace = std::ldexp(1.0, 2 * int(t));
-    std::vector<std::uint32_t> best;
-    double bestCost = 0;
     // A side is worth a tile only where the tile costs less than the rows of its points, and
     // fits only where some vertex has the clearance its grid needs (the cow at 7 steps: none;
     // its covers walked from every face took 2.3 s to find no tile).
@@ -329,8 +379,6 @@ std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::ui
         return side > 0 && tileCost(side, t, halo) < double(side) * side * finestPerFace * kFallbackPointCost;
     };
     const auto fits = [&](std::uint32_t side) { return (side + 2 * halo) / 2 < clearance; };
-    // Each side tried is one greedy cover (a walk from every face), independent of the others:
-    // they run in parallel, the cheapest (the first of equal ones) kept.
     const bool everySide = w.faces.faceCount() <= kEverySideFaces;
     std::vector<std::vector<std::uint32_t>> candidates;
     for (std::uint32_t first = largest; first > 0 && first >= largest * 3 / 8; --first) {
@@ -341,21 +389,28 @@ std::vector<std::uint32_t> chooseSides(const Walker& w, std::uint32_t t, std::ui
             if (fits(side)) sides.push_back(side);
         if (!sides.empty()) candidates.push_back(std::move(sides));
     }
+    for (const std::vector<std::uint32_t>& sides : candidates) w.cacheCentres(sides, halo);
+    // Each cover is a walk from every face, independent of the others: they run in parallel.
+    std::vector<TileBlocks> covers(candidates.size());
     std::vector<double> costs(candidates.size());
 #pragma omp parallel for schedule(dynamic, 1) if (w.faces.faceCount() > 4096)
     for (std::ptrdiff_t i = 0; i < std::ptrdiff_t(candidates.size()); ++i) {
+        TileBlocks& blocks = covers[std::size_t(i)];
+        blocks = coverWith(w, candidates[std::size_t(i)], halo);
         double cost = 0, covered = 0;
-        coverBlocks(w, candidates[std::size_t(i)], halo,
-                    [&](std::uint32_t side, const std::vector<Index>&, const std::vector<Index>&) {
-                        cost += tileCost(side, t, halo);
-                        covered += double(side) * side;
-                        return true;
-                    });
+        for (std::uint32_t side : blocks.side) cost += tileCost(side, t, halo), covered += double(side) * side;
         costs[std::size_t(i)] = cost + (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
     }
-    for (std::size_t i = 0; i < candidates.size(); ++i)
-        if (best.empty() || costs[i] < bestCost) best = candidates[i], bestCost = costs[i];
-    return best;
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < candidates.size(); ++i)
+        if (costs[i] < costs[best]) best = i;
+    if (candidates.empty()) {
+        TileBlocks none;
+        none.halo = halo;
+        none.covered.assign(w.faces.faceCount(), 0);
+        return none;
+    }
+    return std::move(covers[best]);
 }
 
 // Level k of `in` appended to `out`: every row, or only those whose destination is `needed`,
@@ -406,24 +461,20 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
 
 TileBlocks chooseTileBlocks(const Level& base, const TiledPlan& plan) {
     if (plan.doubleSteps > 3) throw std::invalid_argument("chooseTileBlocks: at most 3 double steps");
-    TileBlocks blocks;
-    blocks.halo = kHalo[plan.doubleSteps];
-    blocks.covered.assign(base.faces.faceCount(), 0);
-    if (plan.doubleSteps == 0) return blocks;
+    const std::uint32_t halo = kHalo[plan.doubleSteps];
+    if (plan.doubleSteps == 0) {
+        TileBlocks blocks;
+        blocks.halo = halo;
+        blocks.covered.assign(base.faces.faceCount(), 0);
+        return blocks;
+    }
     Walker w{base.faces, base.connectivity};
     w.cacheRegular();
+    if (plan.sides != TileSides::Every) return cheapestCover(w, plan.doubleSteps, halo);
     std::vector<std::uint32_t> sides;
-    if (plan.sides == TileSides::Every)
-        for (std::uint32_t side = TiledTable::kMaxLattice >> plan.doubleSteps; side > 0; side /= 2) sides.push_back(side);
-    else
-        sides = chooseSides(w, plan.doubleSteps, blocks.halo);
-    coverBlocks(w, sides, blocks.halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>& cells) {
-        blocks.side.push_back(side);
-        blocks.gather.insert(blocks.gather.end(), grid.begin(), grid.end());
-        for (Index c : cells) blocks.covered[c] = 1;
-        return true;
-    });
-    return blocks;
+    for (std::uint32_t side = TiledTable::kMaxLattice >> plan.doubleSteps; side > 0; side /= 2) sides.push_back(side);
+    w.cacheCentres(sides, halo);
+    return coverWith(w, sides, halo);
 }
 
 std::vector<std::uint8_t> baseLabels(const Level& base, const TileBlocks& blocks) {
@@ -519,21 +570,12 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
     return drawOf;
 }
 
-void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector<std::uint32_t>& drawOf) {
-    if (table.fallbackBegin == 0)
-        table.rows = std::move(rows);
-    else
-        keepFallbackRows(table, static_cast<const PerLevelTable&>(rows), drawOf);
-}
+namespace {
 
-void keepFallbackRows(TiledTable& table, const PerLevelTable& rows, const std::vector<std::uint32_t>& drawOf) {
-    // Without a tile every row is kept, in canonical order.
-    if (table.fallbackBegin == 0) {
-        table.rows = rows;
-        return;
-    }
-    // Levels [0, B) whole; the rest only where the fallback needs them, marked from the finest
-    // level back to level B + 1.
+// Per level from B + 1 to the finest (index k + 1 for level k's rows; the others empty):
+// whether the fallback needs the level's point, marked from the finest level back.
+std::vector<std::vector<std::uint8_t>> neededByFallback(const TiledTable& table, const PerLevelTable& rows,
+                                                        const std::vector<std::uint32_t>& drawOf) {
     const std::size_t levels = rows.levels.size();
     std::vector<std::vector<std::uint8_t>> neededAt(levels + 1);
     neededAt[levels].resize(table.refinedCount);
@@ -550,17 +592,83 @@ void keepFallbackRows(TiledTable& table, const PerLevelTable& rows, const std::v
             }
         }
     }
+    return neededAt;
+}
+
+// `rows` may hold only some of a level's rows (refine's lean build): every point the fallback
+// needs must have its own.
+void requireEveryNeededRow(const StencilLevel& kept, const std::vector<std::uint8_t>& needed, std::size_t k) {
+    if (kept.rowEnd - kept.rowBegin != std::uint64_t(std::count(needed.begin(), needed.end(), std::uint8_t(1))))
+        throw std::logic_error("keepFallbackRows: a point the fallback needs has no row on level " + std::to_string(k + 1));
+}
+
+}  // namespace
+
+void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector<std::uint32_t>& drawOf) {
+    if (table.fallbackBegin == 0) {
+        table.rows = std::move(rows);
+        return;
+    }
+    // As the copying form below, but in place: levels [0, B) stay where they are, and each
+    // kept row of the later levels moves down over those dropped (never up), so nothing is
+    // copied into new arrays (the cow at 8 steps: its rows' copy was a quarter of the build).
+    const std::vector<std::vector<std::uint8_t>> neededAt = neededByFallback(table, rows, drawOf);
+    const std::size_t levels = rows.levels.size();
+    if (levels <= table.baseLevel) throw std::logic_error("keepFallbackRows: no level after level B");
+    const StencilLevel& base = rows.levels[table.baseLevel];
+    std::uint64_t groupsEnd = base.groupBegin, rowsEnd = base.rowBegin;
+    std::uint64_t indicesEnd = 0;  // where the groups before level B end
+    if (base.groupBegin > 0) {
+        const RowGroup& last = rows.groups[base.groupBegin - 1];
+        indicesEnd = last.indexBegin + last.rowCount * last.width;
+    }
+    for (std::size_t k = table.baseLevel; k < levels; ++k) {
+        const StencilLevel level = rows.levels[k];
+        const std::vector<std::uint8_t>& needed = neededAt[k + 1];
+        const std::vector<std::uint32_t>* renumber = k + 1 == levels ? &drawOf : nullptr;
+        StencilLevel& kept = rows.levels[k];
+        kept.groupBegin = groupsEnd, kept.rowBegin = rowsEnd;
+        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+            RowGroup g = rows.groups[gi];
+            const std::uint64_t rowBegin = g.rowBegin, rowCount = g.rowCount, indexBegin = g.indexBegin;
+            if (rowBegin < rowsEnd || indexBegin < indicesEnd)  // rows laid out in group order, as every builder does
+                throw std::logic_error("keepFallbackRows: rows out of order on level " + std::to_string(k + 1));
+            g.rowBegin = rowsEnd, g.indexBegin = indicesEnd, g.rowCount = 0;
+            for (std::uint64_t r = rowBegin; r < rowBegin + rowCount; ++r) {
+                const std::uint32_t d = rows.destinations[r];
+                if (!needed[d]) continue;
+                rows.destinations[rowsEnd++] = renumber ? (*renumber)[d] : d;
+                const auto first = rows.indices.begin() + std::ptrdiff_t(indexBegin + (r - rowBegin) * g.width);
+                std::copy(first, first + g.width, rows.indices.begin() + std::ptrdiff_t(indicesEnd));
+                indicesEnd += g.width;
+                ++g.rowCount;
+            }
+            if (g.rowCount > 0) rows.groups[groupsEnd++] = g;
+        }
+        kept.groupEnd = groupsEnd, kept.rowEnd = rowsEnd;
+        requireEveryNeededRow(kept, needed, k);
+    }
+    rows.groups.resize(groupsEnd);
+    rows.destinations.resize(rowsEnd);
+    rows.indices.resize(indicesEnd);
+    table.rows = std::move(rows);
+}
+
+void keepFallbackRows(TiledTable& table, const PerLevelTable& rows, const std::vector<std::uint32_t>& drawOf) {
+    // Without a tile every row is kept, in canonical order.
+    if (table.fallbackBegin == 0) {
+        table.rows = rows;
+        return;
+    }
+    // Levels [0, B) whole; the rest only where the fallback needs them.
+    const std::vector<std::vector<std::uint8_t>> neededAt = neededByFallback(table, rows, drawOf);
+    const std::size_t levels = rows.levels.size();
     table.rows = PerLevelTable{};
     table.rows.controlCount = rows.controlCount;
     for (std::size_t k = 0; k < levels; ++k) {
         const bool fallback = k >= table.baseLevel;
         appendRows(table.rows, rows, k, fallback ? &neededAt[k + 1] : nullptr, k + 1 == levels ? &drawOf : nullptr);
-        // `rows` may hold only some of a level's rows (refine's lean build): every point the
-        // fallback needs must have its own.
-        const StencilLevel& kept = table.rows.levels.back();
-        if (fallback && kept.rowEnd - kept.rowBegin !=
-                            std::uint64_t(std::count(neededAt[k + 1].begin(), neededAt[k + 1].end(), std::uint8_t(1))))
-            throw std::logic_error("keepFallbackRows: a point the fallback needs has no row on level " + std::to_string(k + 1));
+        if (fallback) requireEveryNeededRow(table.rows.levels.back(), neededAt[k + 1], k);
     }
 }
 
