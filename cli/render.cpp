@@ -3,6 +3,7 @@
 // psub::Renderer and write the PNG atomically. Also the subcommand's CLI11 definition.
 #include "render.h"
 
+#include "evaluators.h"
 #include "options.h"
 
 #include "psub/catmark.h"
@@ -27,6 +28,8 @@ namespace {
 // Beyond this many refined faces the picture is refused (memory, and lavapipe's patience).
 constexpr double kMaxFaces = 32.0 * 1024 * 1024;
 
+const std::map<std::string, TableForm> kRenderForms = {{"tiled", TableForm::Tiled}, {"per-level", TableForm::PerLevel}};
+
 const std::map<std::string, Wireframe> kWireframe = {
     {"none", Wireframe::None}, {"refined", Wireframe::Refined}, {"control", Wireframe::Control}};
 
@@ -48,41 +51,43 @@ void guardFaces(const Mesh& mesh, const Connectivity& connectivity, const Render
                      " is the most that fits");
 }
 
-// Positions (from `control`, on the chosen backend) and normals of the surface of `perLevel`.
-void evaluate(VulkanContext& context, Backend backend, const PerLevelTable& perLevel, std::span<const float> control,
-              Drawable& d) {
-    const FactorizedTable none;
-    d.positions.resize(3 * std::size_t(perLevel.refinedCount()));
+// Positions (from `control`, on the chosen backend) and normals of `tables`' surface for
+// `form` (the tiled form's in its drawing order).
+void evaluate(VulkanContext& context, Backend backend, const EvaluatorTables& tables, TableForm form,
+              std::span<const float> control, Drawable& d) {
+    const std::unique_ptr<Evaluator> evaluator =
+        makeEvaluator(backend, tables, form, backend == Backend::Vulkan ? &context : nullptr);
+    d.positions.resize(3 * std::size_t(evaluator->refinedCount()));
     d.normals.resize(d.positions.size());
-    if (backend == Backend::Vulkan) {
-        VulkanEvaluator evaluator(context, perLevel, none, d.surface, TableForm::PerLevel);
-        evaluator.evaluate(control, d.positions, d.normals);
-        d.what += "; evaluated with Vulkan";
-        return;
-    }
-    CpuEvaluator<float> evaluator(perLevel, none, d.surface, TableForm::PerLevel);
-    evaluator.evaluate(control, d.positions);
-    evaluator.normals(d.positions, d.normals);
-    d.what += "; evaluated on the CPU";
+    evaluator->evaluate(control, d.positions, d.normals);
+    d.what += backend == Backend::Vulkan ? "; evaluated with Vulkan" : "; evaluated on the CPU";
 }
 
 }  // namespace
 
 Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels,
-                    Rules rules) {
+                    Rules rules, TableForm form) {
     RefineOptions options;
     options.levels = levels;
     options.rules = rules;
+    options.tiled = form == TableForm::Tiled;
+    options.perLevel = form != TableForm::Tiled;  // the tiled form alone: the lean build
     Refinement r = refine(mesh, checked.connectivity, options);
     Drawable d;
-    d.surface = std::move(r.surface);
-    d.uv = std::move(r.uv);
     d.what = "P-S, " + std::to_string(levels) + (levels == 1 ? " step" : " steps");
     if (rules != Rules::Paper) d.what += rules == Rules::Robust ? ", robust rules" : ", shape rules";
+    if (form == TableForm::Tiled) d.what += ", tiled form";
     const std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
-    evaluate(context, backend, r.perLevel, control, d);
+    evaluate(context, backend, tablesOf(r), form, control, d);
     requireFinite(d.positions, mesh.source.path, "refined");
     requireFinite(d.normals, mesh.source.path, "refined normal of");
+    d.uv = std::move(r.uv);
+    if (form == TableForm::Tiled) {
+        d.surface = std::move(r.tiled.surface);
+        d.tiled = std::move(r.tiled);
+    } else {
+        d.surface = std::move(r.surface);
+    }
     return d;
 }
 
@@ -95,8 +100,10 @@ Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, i
     d.what = "Catmull-Clark (OpenSubdiv), " + std::to_string(levels) + (levels == 1 ? " level" : " levels");
     PerLevelTable identity;
     identity.controlCount = d.surface.vertexCount;
+    const FactorizedTable none;
+    const TiledTable noTiles;
     const std::vector<float> positions(finest.positions.begin(), finest.positions.end());
-    evaluate(context, backend, identity, positions, d);
+    evaluate(context, backend, {identity, none, d.surface, noTiles}, TableForm::PerLevel, positions, d);
     requireFinite(d.positions, mesh.source.path, "refined");
     requireFinite(d.normals, mesh.source.path, "refined normal of");
     return d;
@@ -229,6 +236,11 @@ CLI::App* addRenderCommand(CLI::App& app, RenderCommandOptions& o) {
     addChoice(re, "--scheme", o.scheme, kSchemeNames, "ps: P-S; cc: Catmull-Clark through OpenSubdiv", "ps");
     addChoice(re, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper; --scheme ps only)",
               "paper");
+    addChoice(re, "--form", o.form, kRenderForms,
+              "P-S table form: per-level (every level's rows; canonical vertex order) or tiled (regular tiles "
+              "where the mesh has them, rows elsewhere; its own vertex order). The same surface within float "
+              "rounding; per-level is the quicker for one picture, tiled the quicker per frame (psub play)",
+              "per-level");
     addChoice(re, "--wireframe", o.wireframe, kWireframe,
               "none; refined: the refined faces' edges; control: the input faces' edges (the cage)", "none");
     addSize(re, "--size", o.width, o.height, "image size in pixels", 1, "1280x720");
@@ -282,11 +294,11 @@ int runRender(const RenderCommandOptions& o) {
     }
     try {
         VulkanContext context;
-        const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels, o.rules)
+        const Drawable d = o.scheme == Scheme::PS ? drawablePS(context, o.backend, mesh, checked, o.levels, o.rules, o.form)
                                                   : drawableCC(context, o.backend, mesh, o.levels);
         std::optional<TextureData> texture;
         if (!textureLabel.empty()) {
-            texture = textureData(std::move(image), mesh, d.uv);
+            texture = textureData(std::move(image), mesh, d.uv, d.tiled.refinedCount ? &d.tiled : nullptr);
             texture->factor = factor;
         }
         // Untextured: a glTF material's base colour factor, when it has one (materialColour).

@@ -4,6 +4,7 @@
 
 #include "commands.h"
 
+#include "psub/evaluator.h"
 #include "psub/render.h"
 #include "psub/tiled.h"
 
@@ -32,6 +33,7 @@ struct RenderCommandOptions {
     std::uint32_t samples = 4;       // MSAA samples per pixel
     std::string texture;             // base-colour image (.png, .jpg) sampled with the mesh's UVs
                                      // (overrides a glTF material's texture)
+    TableForm form = TableForm::PerLevel;  // --scheme ps: PerLevel or Tiled (its lean build, drawing order)
 };
 
 // A refined surface with positions and normals, ready to draw.
@@ -40,6 +42,9 @@ struct Drawable {
     std::vector<float> positions, normals;
     std::string what;  // "P-S, 4 steps" and where it was evaluated
     FaceVaryingTable uv;  // the refined UVs' table (P-S; empty when the mesh has none)
+    // The tiled form's table when `surface` and the positions are in its drawing order (P-S
+    // with TableForm::Tiled; its uvFace... name the textured faces), else empty.
+    TiledTable tiled;
 };
 
 // A base-colour texture ready for the Renderer: the image and the refined UVs per corner of
@@ -89,9 +94,11 @@ TextureData textureData(Image image, const Mesh& mesh, const FaceVaryingTable& t
                         const TiledTable* drawing = nullptr);
 
 // P-S after `levels` steps (after the paired method when needed) of a checked mesh with
-// `rules`, evaluated on `backend` (Cpu or Vulkan on `context`).
+// `rules`, evaluated on `backend` (Cpu or Vulkan on `context`) through `form`: PerLevel builds
+// the per-level table and draws in the canonical order; Tiled builds the tiled form alone (the
+// lean build) and draws in its drawing order.
 Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, const CheckedMesh& checked, int levels,
-                    Rules rules = Rules::Paper);
+                    Rules rules = Rules::Paper, TableForm form = TableForm::PerLevel);
 
 // OpenSubdiv's Catmull-Clark after `levels` levels (0: the mesh itself), normals on `backend`.
 Drawable drawableCC(VulkanContext& context, Backend backend, const Mesh& mesh, int levels);

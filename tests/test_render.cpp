@@ -572,6 +572,37 @@ TEST_F(RenderCommand, SchemesWireframesAndBackends) {
     EXPECT_EQ(readPng(out).height, 96u);
 }
 
+// --form tiled draws the tiled form's own vertex order: its faces, the refined edges over them
+// and its textured faces over the same UVs. Spot at 8 steps is two thirds tiled. The pictures
+// are the per-level ones up to the float rounding of the positions (a few pixels along edges);
+// a face list in the wrong order would scatter triangles over the picture.
+TEST_F(RenderCommand, TiledFormDrawsThePerLevelPicture) {
+    const std::string model = test::dataPath("spot_control_mesh_uv.obj");
+    const std::string perLevel = (dir_ / "per-level.png").string(), tiled = (dir_ / "tiled.png").string();
+    for (const std::string extra : {" --texture " + test::dataPath("spot_texture.png"), std::string(" --wireframe refined")}) {
+        const std::string common = "render " + model + " --levels 8 --size 200x160" + extra;
+        ASSERT_EQ(runPsub(common + " -o " + perLevel), 0) << extra;
+        test::PsubHow how;
+        how.environment = test::kNoLeakCheck;
+        const test::PsubRun run = test::runPsub(common + " --form tiled -o " + tiled, how);
+        ASSERT_EQ(run.status, 0) << run.err;
+        EXPECT_NE(run.out.find("tiled form"), std::string::npos) << run.out;
+        const Image a = readPng(perLevel), b = readPng(tiled);
+        ASSERT_EQ(a.rgba.size(), b.rgba.size());
+        EXPECT_GT(notBackground(a, {255, 255, 255, 255}), 200u * 160u / 10) << extra;
+        std::size_t off = 0;
+        double sum = 0;
+        for (std::size_t i = 0; i < a.rgba.size(); i += 4)
+            for (std::size_t c = 0; c < 3; ++c) {
+                const int d = std::abs(int(a.rgba[i + c]) - int(b.rgba[i + c]));
+                sum += d;
+                off += d > 32;
+            }
+        EXPECT_LE(sum / double(a.rgba.size() / 4 * 3), 1.0) << extra;
+        EXPECT_LE(double(off), 0.005 * double(a.rgba.size() / 4)) << extra;
+    }
+}
+
 TEST_F(RenderCommand, BadInputExits1AndUsageErrorsExit2WithoutAFile) {
     const std::string out = (dir_ / "bad.png").string();
     EXPECT_EQ(runPsub("render " + test::testDataPath("bad/nan_coordinate.obj") + " -o " + out), 1);
@@ -585,6 +616,7 @@ TEST_F(RenderCommand, BadInputExits1AndUsageErrorsExit2WithoutAFile) {
         << "no Vulkan driver";
     EXPECT_EQ(runPsub("render " + test::dataPath("cube.obj") + " -o " + out + " --size 12by7"), 2);
     EXPECT_EQ(runPsub("render " + test::dataPath("cube.obj") + " -o " + out + " --wireframe dots"), 2);
+    EXPECT_EQ(runPsub("render " + test::dataPath("cube.obj") + " -o " + out + " --form factorized"), 2);
     EXPECT_EQ(runPsub("render " + test::dataPath("cube.obj")), 2);
     EXPECT_FALSE(fs::exists(out));
 }
