@@ -386,8 +386,8 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     const std::vector<char> corners = inputCorners(mesh.faces, connectivity, options.rules);
     const int steps = options.levels + (out.preprocessed ? 1 : 0);
     // The tiled form: its plan once the first quad level exists, its blocks chosen on level B,
-    // its tiles placed before the last step's rows (level N - 2, where their lattices are
-    // walked, is kept until then). Without the per-level table (the lean build) its own rows
+    // its tiles placed while level N - 2 (where their lattices are walked) is the parent, before
+    // it is refined (and consumed). Without the per-level table (the lean build) its own rows
     // are made here: levels up to B whole, then only those its fallback can need (labels,
     // docs/tiled.md), the last level's only for the fallback's points.
     const bool lean = options.tiled && !options.perLevel;
@@ -396,7 +396,6 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     const int firstQuadLevel = out.preprocessed && steps > 0 ? 1 : 0;
     TiledPlan plan{0, 0};
     TileBlocks blocks;
-    Level coarse;
     std::vector<std::uint8_t> labels;  // the lean build's, of the current level (B and on)
     PerLevelTable leanRows;
     leanRows.controlCount = mesh.faces.vertexCount;
@@ -417,7 +416,9 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         }
         out.tiledMs += ms(start);
     };
-    const auto keepCoarse = [&](int k) { return options.tiled && plan.doubleSteps > 0 && k == steps - 1; };
+    // Where the tiles are placed: on level N - 2, the parent of step N - 1 (without double
+    // steps, none to walk: at the last step).
+    const auto placesTiles = [&](int k) { return options.tiled && k == steps - (plan.doubleSteps > 0 ? 1 : 0); };
     // The lean build's rows of step k (parent is level k - 1).
     const auto appendLeanRows = [&](int k, bool split) {
         // Every row up to level B (when preprocessed the plan comes only after step 1) and
@@ -464,13 +465,11 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             appendLevel(out.perLevel, parent, out.preprocessed && k == 1, split, options.rules, corners);
             out.perLevelMs += ms(start);
         }
-        if (options.tiled && k == steps) {
+        if (placesTiles(k)) {
             start = Clock::now();
-            const bool coarseSplits = splitsBoundary(options.boundary, steps - 1 - (out.preprocessed ? 1 : 0));
-            const Index finestCount = parent.faces.vertexCount + parent.faces.faceCount() +
-                                      (split ? parent.connectivity.boundaryEdgeCount : 0);
-            drawOf = placeTiles(out.tiled, blocks, plan.doubleSteps > 0 ? &coarse : nullptr, coarseSplits, finestCount);
-            coarse = Level{};
+            Counts finest = countsAfterStep(countMesh(parent.faces, parent.connectivity), split);
+            if (k < steps) finest = countsAfterStep(finest, splitsBoundary(options.boundary, steps - (out.preprocessed ? 1 : 0)));
+            drawOf = placeTiles(out.tiled, blocks, plan.doubleSteps > 0 ? &parent : nullptr, split, Index(finest.vertices));
             out.tiledMs += ms(start);
         }
         if (lean) {
@@ -483,10 +482,6 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             // The finest level: only its faces (the surface), no half-edges.
             parent.faces = refineFaces(parent.faces, parent.connectivity, split);
             parent.connectivity = {};
-        } else if (keepCoarse(k)) {
-            Level child = refineLevel(parent, split);
-            coarse = std::move(parent);
-            parent = std::move(child);
         } else {
             parent = refineLevel(std::move(parent), split);  // frees the parent while the child grows
         }
