@@ -71,6 +71,8 @@ struct Walker {
     std::vector<std::vector<std::uint8_t>> nearCentre = {};
 
     void cacheCentres(const std::vector<std::uint32_t>& sides, std::uint32_t halo) {
+        // Without an irregular vertex every walk skips the centre (its clearance is kNone).
+        if (clearance.empty() || largestClearance() == kNone) return;
         for (std::uint32_t side : sides) {
             if (side < nearCentre.size() && !nearCentre[side].empty()) continue;
             if (side >= nearCentre.size()) nearCentre.resize(side + 1);
@@ -80,8 +82,7 @@ struct Walker {
             std::vector<Index> queue;
             std::vector<std::uint8_t> expanded(faces.faceCount(), 0);
             for (Index v = 0; v < faces.vertexCount; ++v)
-                if (clearance[v] != kNone && clearance[v] > halo + side / 2) hops[v] = 0, queue.push_back(v);
-                else if (clearance[v] == kNone) hops[v] = 0, queue.push_back(v);  // no irregular vertex at all
+                if (clearance[v] > halo + side / 2) hops[v] = 0, queue.push_back(v);  // kNone included: no irregular vertex
             for (std::size_t i = 0; i < queue.size(); ++i) {
                 if (hops[queue[i]] >= side / 2) continue;
                 for (Index h : c.outgoingOf(queue[i])) {
