@@ -311,50 +311,21 @@ void refineAnimated(Playback& p) {
     p.normals.resize(p.refined.size());
 }
 
-// Median milliseconds of a few evaluations of the rest pose (the auto form's quick timing).
-double quickFrameMs(Evaluator& evaluator, const std::vector<float>& control, std::vector<float>& out) {
-    std::vector<double> ms;
-    evaluator.evaluate(control, out);  // warm-up
-    for (int k = 0; k < 5; ++k) {
-        const Clock::time_point start = Clock::now();
-        evaluator.evaluate(control, out);
-        ms.push_back(msBetween(start, Clock::now()));
-    }
-    std::sort(ms.begin(), ms.end());
-    return ms[ms.size() / 2];
-}
-
-// The table form: the forced one; or (auto) the tiled form when it has tiles and a quick timing
-// of both on the rest pose, on the playing backend, finds it faster than the per-level rows (on
-// meshes whose finest points come mostly from the fallback it is slower; docs/tiled.md). On
-// lavapipe the tile kernel's first compile takes seconds (Mesa's shader cache keeps it).
+// The table form: the forced one, or (auto) fasterForm's (cli/evaluators.h) on the rest pose.
 // Textured or not: the tiled form draws the texture with its own faces (TiledTable::uvFace...).
 // `context`: the Vulkan context when playing on Vulkan.
 void chooseForm(Playback& p, VulkanContext* context) {
-    const Refinement& r = p.refinement;
     if (p.o.form != kFormAuto) {
         p.form = p.o.form == kFormTiled ? TableForm::Tiled
                  : p.o.form == kFormFactorized ? TableForm::Factorized : TableForm::PerLevel;
         p.formReason = "forced";
         return;
     }
-    if (r.tiled.tileCount() == 0) {
-        p.formReason = "auto: no regular tiles";
-        return;
-    }
-    // One evaluator at a time (a device's memory may hold one mesh's tables, not two); the
-    // tiled one is kept when it wins, the per-level one made again otherwise (by prepare).
     p.animated.pose(0, p.control);
-    const double perLevelMs =
-        quickFrameMs(*makeEvaluator(p.o.backend, tablesOf(r), TableForm::PerLevel, context), p.control, p.refined);
-    std::unique_ptr<Evaluator> tiled = makeEvaluator(p.o.backend, tablesOf(r), TableForm::Tiled, context);
-    const double tiledMs = quickFrameMs(*tiled, p.control, p.refined);
-    p.form = tiledMs < perLevelMs ? TableForm::Tiled : TableForm::PerLevel;
-    if (p.form == TableForm::Tiled) p.evaluator = std::move(tiled);
-    char reason[160];
-    std::snprintf(reason, sizeof reason, "auto: %.0f%% of the points tiled; rest pose %.3f ms tiled, %.3f ms per-level",
-                  100.0 * r.tiled.fallbackBegin / std::max(1u, r.tiled.refinedCount), tiledMs, perLevelMs);
-    p.formReason = reason;
+    FormChoice choice = fasterForm(p.o.backend, p.refinement, context, p.control, p.refined);
+    p.form = choice.form;
+    if (choice.tiled) p.evaluator = std::move(choice.tiled);
+    p.formReason = std::move(choice.reason);
 }
 
 // Creates the evaluator, and the renderer with its camera; returns 1 (after a message) when

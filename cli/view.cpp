@@ -155,7 +155,12 @@ struct Built {
 // Catmull-Clark levels drawn beside `levels` P-S steps: half as many (equal face counts on quads).
 int ccLevelsFor(int levels) { return levels / 2; }
 
-Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary) {
+// ViewOptions::form.
+constexpr int kFormAuto = 0, kFormTiled = 2;
+
+// The P-S tables for `form`: both forms for auto (the choice is timed when they are adopted),
+// the tiled form alone (its lean build) when forced, else the per-level table.
+Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary, int form) {
     Built b;
     b.levels = levels, b.rules = rules, b.boundary = boundary, b.ccLevels = ccLevelsFor(levels);
     const Mesh& mesh = a.mesh;
@@ -169,6 +174,8 @@ Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary)
     }
     RefineOptions options;
     options.levels = levels, options.rules = rules, options.boundary = boundary;
+    options.tiled = form == kFormAuto || form == kFormTiled;
+    options.perLevel = form != kFormTiled;
     b.ps = refine(mesh, connectivity, options);
     b.ccStencils = std::make_unique<CatmarkStencils>(mesh.faces, b.ccLevels);
     b.cc = buildSurfaceTable(b.ccStencils->finestFaces());
@@ -246,6 +253,7 @@ struct Shown {
     bool playing = false, help = false, capture = false;
     Boundary boundary = Boundary::Paper;
     Rules rules = Rules::Paper;
+    bool tiled = false;  // P-S through the tiled form
     double fps = 0, previousPresentMs = 0;
     std::string notice;
     std::array<double, kStageCount> stage{};
@@ -344,6 +352,7 @@ struct Viewer {
     Boundary boundary, wantedBoundary;
     bool playing, help = false, quit = false, framed = false;
     std::unique_ptr<CpuEvaluator<float>> ccNormals;
+    TableForm psForm = TableForm::PerLevel;  // the P-S evaluators' (adopt: forced, or auto's choice)
     std::array<Slot, kMaxFramesInFlight> slots;
     int framesInFlight = kMaxFramesInFlight;
     std::unique_ptr<DrawThread> drawThread;  // with 2 frames in flight
@@ -365,7 +374,7 @@ struct Viewer {
           wantedLevels(options.levels), rules(options.rules), wantedRules(options.rules), boundary(options.boundary),
           wantedBoundary(options.boundary), playing(!options.paused), framesInFlight(options.framesInFlight) {}
 
-    std::uint64_t psFaces() const { return built->ps.surface.faceOffsets.size() - 1; }
+    std::uint64_t psFaces() const { return slots[0].ps.surface->faceOffsets.size() - 1; }
     std::uint64_t ccFaces() const { return built->cc.faceOffsets.size() - 1; }
 
     void act(Action action);
@@ -391,7 +400,7 @@ void Viewer::startBuild() {
     if (pending.valid() || (wantedLevels == levels && wantedRules == rules && wantedBoundary == boundary)) return;
     notice = "building level " + std::to_string(wantedLevels) + "...";
     pending = std::async(std::launch::async, [this, l = wantedLevels, r = wantedRules, b = wantedBoundary] {
-        return buildTables(animated, l, r, b);
+        return buildTables(animated, l, r, b, o.form);
     });
 }
 
@@ -472,13 +481,23 @@ void Viewer::adopt(Built b) {
     built = std::make_shared<Built>(std::move(b));
     levels = built->levels, rules = built->rules, boundary = built->boundary;
     const Refinement& r = built->ps;
+    // The form: forced, or psub play's auto choice, timed on the rest pose.
+    FormChoice choice;
+    if (o.form == kFormTiled) choice.form = TableForm::Tiled;
+    if (o.form == kFormAuto) {
+        std::vector<float> control(3 * std::size_t(animated.mesh.faces.vertexCount)), scratch(3 * std::size_t(r.tiled.refinedCount));
+        animated.pose(0, control);
+        choice = fasterForm(o.backend, r, context.get(), control, scratch);
+    }
+    psForm = choice.form;
     for (int s = 0; s < framesInFlight; ++s) {
         Slot& slot = slots[std::size_t(s)];
         if (s == 0 || slots[0].drawnFromDevice) {
-            slot.evaluator = makeEvaluator(o.backend, tablesOf(r), TableForm::PerLevel, context.get());
+            slot.evaluator = s == 0 && choice.tiled ? std::move(choice.tiled)
+                                                    : makeEvaluator(o.backend, tablesOf(r), psForm, context.get());
             slot.drawnFromDevice = dynamic_cast<const VulkanEvaluator*>(slot.evaluator.get());
         }
-        slot.ps.surface = &built->ps.surface;
+        slot.ps.surface = psForm == TableForm::Tiled ? &r.tiled.surface : &r.surface;
         slot.cc.surface = &built->cc;
         slot.control.assign(3 * std::size_t(animated.mesh.faces.vertexCount), 0.0f);
     }
@@ -575,6 +594,7 @@ void Viewer::prepare(Slot& slot, bool capture) {
     s.scheme = scheme, s.wireframe = wireframe, s.levels = levels, s.ccLevels = built->ccLevels;
     s.psFaces = psFaces(), s.ccFaces = ccFaces();
     s.playing = playing, s.help = help, s.capture = capture, s.boundary = boundary, s.rules = rules;
+    s.tiled = psForm == TableForm::Tiled;
     s.fps = fps, s.previousPresentMs = presentMs, s.notice = notice;
     chooseRenderers(slot);
     evaluate(slot);
@@ -659,9 +679,10 @@ void Viewer::frameModel(const Slot& slot) {
 
 void drawHud(const Shown& s, Backend backend, Image& frame) {
     char text[512];
-    const std::string what = s.scheme == 0   ? "P-S " + std::to_string(s.levels) + " steps"
+    const std::string ps = "P-S " + std::to_string(s.levels) + (s.tiled ? " steps (tiled)" : " steps");
+    const std::string what = s.scheme == 0   ? ps
                              : s.scheme == 1 ? "Catmull-Clark " + std::to_string(s.ccLevels) + " levels"
-                                             : "P-S " + std::to_string(s.levels) + " | Catmull-Clark " + std::to_string(s.ccLevels);
+                                             : ps + " | Catmull-Clark " + std::to_string(s.ccLevels);
     const std::uint64_t faces = (s.scheme != 1 ? s.psFaces : 0) + (s.scheme != 0 ? s.ccFaces : 0);
     const auto& stage = s.stage;
     std::snprintf(text, sizeof text,
@@ -697,12 +718,12 @@ void Viewer::writeLog(const Slot& slot, int index) {
     std::fprintf(log,
                  "{\"frame\": %d, \"level\": %d, \"cc_level\": %d, \"scheme\": \"%s\", \"refined_faces\": %llu, "
                  "\"ps_faces\": %llu, \"cc_faces\": %llu, \"drawn\": [%s%s%s], \"width\": %u, \"height\": %u, "
-                 "\"wireframe\": \"%s\", \"playing\": %s, \"boundary\": \"%s\", \"rules\": \"%s\", \"rss_kib\": %ld, "
+                 "\"ps_form\": \"%s\", \"wireframe\": \"%s\", \"playing\": %s, \"boundary\": \"%s\", \"rules\": \"%s\", \"rss_kib\": %ld, "
                  "\"validation_messages\": %llu, \"frames_in_flight\": %d, \"slot\": %d, \"renderers_created\": %llu, "
                  "\"cpu_upload\": \"%s\", \"frame_ms\": %.4f, \"stages\": {",
                  index, s.levels, s.ccLevels, kSchemeNames[s.scheme], (unsigned long long)(ps ? s.psFaces : s.ccFaces),
                  (unsigned long long)s.psFaces, (unsigned long long)s.ccFaces, ps ? "\"ps\"" : "", ps && cc ? ", " : "",
-                 cc ? "\"cc\"" : "", width, height, kWireframeNames[s.wireframe], s.playing ? "true" : "false",
+                 cc ? "\"cc\"" : "", width, height, s.tiled ? "tiled" : "per-level", kWireframeNames[s.wireframe], s.playing ? "true" : "false",
                  s.boundary == Boundary::Paper ? "paper" : "smooth", s.rules == Rules::Paper ? "paper" : "robust",
                  residentKiB(), (unsigned long long)context->validationMessageCount(), framesInFlight,
                  int(&slot - slots.data()), (unsigned long long)renderersCreated, direct ? "direct" : "copy", frameMs);
@@ -883,7 +904,7 @@ int view(const ViewOptions& o, Animated& animated, const std::vector<ScriptEvent
     glfwSetCursorPosCallback(window, onCursor);
     glfwSetScrollCallback(window, onScroll);
     // The first tables are built here, before the loop (later ones off it).
-    Built first = buildTables(animated, o.levels, o.rules, o.boundary);
+    Built first = buildTables(animated, o.levels, o.rules, o.boundary, o.form);
     if (!first.error.empty()) throw InputError(o.input + ": --levels " + first.error);
     v.adopt(std::move(first));
     if (v.framesInFlight > 1) v.drawThread = std::make_unique<DrawThread>([&v](Slot& slot) { v.draw(slot); });
@@ -935,6 +956,11 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
                    "else wave); plays in wall-clock time, looping");
     addChoice(vi, "--backend", o.backend, kCpuOrVulkan, "where the P-S stencils and normals run: cpu or vulkan", "cpu");
     addChoice(vi, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (r toggles)", "paper");
+    static const std::map<std::string, int> forms = {{"auto", kFormAuto}, {"per-level", 1}, {"tiled", kFormTiled}};
+    addChoice(vi, "--form", o.form, forms,
+              "P-S table form: auto (as psub play: the tiled form when a quick timing of both, at each level "
+              "built, finds it faster than the per-level rows), per-level or tiled",
+              "auto");
     addChoice(vi, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (b toggles)", "paper");
     addChoice(vi, "--wireframe", o.wireframe, wireframes, "none, refined or control (w cycles)", "none");
     addSize(vi, "--size", o.width, o.height, "window size", 1, "1280x720");

@@ -22,6 +22,7 @@ struct ViewOptions {
     Backend backend = Backend::Cpu;
     Rules rules = Rules::Paper;
     Boundary boundary = Boundary::Paper;
+    int form = 0;               // P-S table form: 0 auto (psub play's), 1 per-level, 2 tiled
     std::uint32_t width = 1280, height = 720;
     std::uint32_t samples = 4;  // MSAA, as psub render
     int wireframe = 0;          // 0 none, 1 refined, 2 control

@@ -102,14 +102,8 @@ std::size_t drawnPixels(const Image& image, std::uint32_t x0, std::uint32_t x1) 
     return count;
 }
 
-TEST_F(View, StartFrameWithoutHudMatchesPsubRender) {
-    const std::string model = test::dataPath("spot_control_mesh.obj"), shot = temp("start.png"), still = temp("render.png");
-    // twist is the identity at time 0: the first frame is the rest pose psub render draws.
-    const Outcome r = view("'" + model + "' --levels 3 --anim twist --size 320x240 --no-hud --frames 1 --screenshot '" + shot + "'");
-    expectClean(r);
-    const Outcome rendered = run("", "render '" + model + "' --levels 3 --size 320x240 -o '" + still + "'");
-    ASSERT_EQ(rendered.status, 0) << rendered.err;
-    const Image a = readPng(shot), b = readPng(still);
+// A 320 x 240 picture with the model drawn, and `b` the same but for a few pixels along edges.
+void expectSamePicture(const Image& a, const Image& b) {
     ASSERT_EQ(a.width, 320u);
     ASSERT_EQ(a.height, 240u);
     ASSERT_EQ(b.width, a.width);
@@ -129,6 +123,17 @@ TEST_F(View, StartFrameWithoutHudMatchesPsubRender) {
     const double pixels = double(a.width) * a.height;
     for (int c = 0; c < 3; ++c) EXPECT_LE(sum[c] / pixels, 2.0) << "channel " << c;
     EXPECT_LE(double(off), 0.01 * pixels);
+}
+
+TEST_F(View, StartFrameWithoutHudMatchesPsubRender) {
+    const std::string model = test::dataPath("spot_control_mesh.obj"), shot = temp("start.png"), still = temp("render.png");
+    // twist is the identity at time 0: the first frame is the rest pose psub render draws.
+    const Outcome r = view("'" + model + "' --levels 3 --anim twist --size 320x240 --no-hud --frames 1 --screenshot '" + shot + "'");
+    expectClean(r);
+    const Outcome rendered = run("", "render '" + model + "' --levels 3 --size 320x240 -o '" + still + "'");
+    ASSERT_EQ(rendered.status, 0) << rendered.err;
+    const Image a = readPng(shot);
+    expectSamePicture(a, readPng(still));
     // With the HUD: text in the top-left corner, where the picture alone is background.
     const Outcome withHud = view(q(model) + " --levels 3 --anim twist --size 320x240 --frames 1 --screenshot " + q(shot));
     expectClean(withHud);
@@ -143,6 +148,36 @@ TEST_F(View, StartFrameWithoutHudMatchesPsubRender) {
     EXPECT_GT(dark, 50u) << "HUD text";
     fs::remove(shot);
     fs::remove(still);
+}
+
+// --form tiled draws the tiled form (its own vertex order and faces) and logs it; its start
+// frame is psub render's (per-level) picture, as the per-level form's is. Spot at 8 steps is two
+// thirds tiled. --form per-level logs its form; auto logs the one its timing chose.
+TEST_F(View, TiledFormStartFrameMatchesPsubRender) {
+    const std::string model = test::dataPath("spot_control_mesh.obj"), shot = temp("tiled.png"), still = temp("still.png"),
+                      log = temp("tiled.jsonl");
+    const std::string common = q(model) + " --levels 8 --anim twist --size 320x240 --no-hud --frames 1 --log " + q(log);
+    const Outcome r = view(common + " --form tiled --screenshot " + q(shot));
+    expectClean(r);
+    std::vector<std::string> lines = logLines(log);
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_TRUE(contains(lines[0], "\"ps_form\": \"tiled\"")) << lines[0];
+    EXPECT_EQ(field(lines[0], "refined_faces"), 93696);
+    const Outcome rendered = run("", "render " + q(model) + " --levels 8 --size 320x240 -o " + q(still));
+    ASSERT_EQ(rendered.status, 0) << rendered.err;
+    expectSamePicture(readPng(shot), readPng(still));
+    expectClean(view(common + " --form per-level"));
+    lines = logLines(log);
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_TRUE(contains(lines[0], "\"ps_form\": \"per-level\"")) << lines[0];
+    expectClean(view(common));
+    lines = logLines(log);
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_TRUE(contains(lines[0], "\"ps_form\": \"tiled\"") || contains(lines[0], "\"ps_form\": \"per-level\""))
+        << lines[0];
+    fs::remove(shot);
+    fs::remove(still);
+    fs::remove(log);
 }
 
 TEST_F(View, PlusDoublesTheLoggedFaceCount) {
