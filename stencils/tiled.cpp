@@ -47,22 +47,30 @@ struct Walker {
         std::vector<std::uint8_t> flags(faces.vertexCount);
         for (Index v = 0; v < faces.vertexCount; ++v) flags[v] = regular(v) ? 1 : 0;
         regularFlags = std::move(flags);
-        // Breadth first from every vertex that is not regular, over the vertices of each face;
-        // a face is expanded once, from its first corner dequeued (the nearest: its other
-        // corners are then at most one more).
-        clearance.assign(faces.vertexCount, kNone);
-        std::vector<Index> queue;
-        std::vector<std::uint8_t> expanded(faces.faceCount(), 0);
+        std::vector<Index> irregular;
         for (Index v = 0; v < faces.vertexCount; ++v)
-            if (!regularFlags[v]) clearance[v] = 0, queue.push_back(v);
-        for (std::size_t i = 0; i < queue.size(); ++i)
+            if (!regularFlags[v]) irregular.push_back(v);
+        clearance = hopsFrom(std::move(irregular), kNone);
+    }
+    // Per vertex, the face hops from the nearest of `sources`, kNone where none is within
+    // `depth`: breadth first over the vertices of each face, a face expanded once, from its
+    // first corner dequeued (the nearest: its other corners are then at most one more).
+    std::vector<std::uint32_t> hopsFrom(std::vector<Index> sources, std::uint32_t depth) const {
+        std::vector<Index>& queue = sources;  // grows from them
+        std::vector<std::uint32_t> hops(faces.vertexCount, kNone);
+        std::vector<std::uint8_t> expanded(faces.faceCount(), 0);
+        for (Index v : queue) hops[v] = 0;
+        for (std::size_t i = 0; i < queue.size(); ++i) {
+            if (hops[queue[i]] >= depth) continue;
             for (Index h : c.outgoingOf(queue[i])) {
                 const Index f = c.faceOf[h];
                 if (expanded[f]) continue;
                 expanded[f] = 1;
                 for (Index u : faces.face(f))
-                    if (clearance[u] == kNone) clearance[u] = clearance[queue[i]] + 1, queue.push_back(u);
+                    if (hops[u] == kNone) hops[u] = hops[queue[i]] + 1, queue.push_back(u);
             }
+        }
+        return hops;
     }
     // Per side, when cached (cacheCentres): whether the vertex is within side / 2 face hops of
     // a vertex whose clearance exceeds halo + side / 2, as the centre of a block of that side
@@ -76,23 +84,10 @@ struct Walker {
         for (std::uint32_t side : sides) {
             if (side < nearCentre.size() && !nearCentre[side].empty()) continue;
             if (side >= nearCentre.size()) nearCentre.resize(side + 1);
-            // Breadth first, side / 2 hops deep, from every vertex with that clearance (the
-            // same face expansion as cacheRegular's).
-            std::vector<std::uint32_t> hops(faces.vertexCount, kNone);
-            std::vector<Index> queue;
-            std::vector<std::uint8_t> expanded(faces.faceCount(), 0);
+            std::vector<Index> centres;  // the vertices with the clearance a centre needs
             for (Index v = 0; v < faces.vertexCount; ++v)
-                if (clearance[v] > halo + side / 2) hops[v] = 0, queue.push_back(v);  // kNone included: no irregular vertex
-            for (std::size_t i = 0; i < queue.size(); ++i) {
-                if (hops[queue[i]] >= side / 2) continue;
-                for (Index h : c.outgoingOf(queue[i])) {
-                    const Index f = c.faceOf[h];
-                    if (expanded[f]) continue;
-                    expanded[f] = 1;
-                    for (Index u : faces.face(f))
-                        if (hops[u] == kNone) hops[u] = hops[queue[i]] + 1, queue.push_back(u);
-                }
-            }
+                if (clearance[v] > halo + side / 2) centres.push_back(v);
+            const std::vector<std::uint32_t> hops = hopsFrom(std::move(centres), side / 2);
             std::vector<std::uint8_t> near(faces.vertexCount);
             for (Index v = 0; v < faces.vertexCount; ++v) near[v] = hops[v] != kNone;
             nearCentre[side] = std::move(near);
