@@ -579,7 +579,7 @@ TEST_F(RenderCommand, SchemesWireframesAndBackends) {
 TEST_F(RenderCommand, TiledFormDrawsThePerLevelPicture) {
     const std::string model = test::dataPath("spot_control_mesh_uv.obj");
     const std::string perLevel = (dir_ / "per-level.png").string(), tiled = (dir_ / "tiled.png").string();
-    for (const std::string extra : {" --texture " + test::dataPath("spot_texture.png"), std::string(" --wireframe refined")}) {
+    for (const std::string& extra : {" --texture " + test::dataPath("spot_texture.png"), std::string(" --wireframe refined")}) {
         const std::string common = "render " + model + " --levels 8 --size 200x160" + extra;
         ASSERT_EQ(runPsub(common + " -o " + perLevel), 0) << extra;
         test::PsubHow how;
