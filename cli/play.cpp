@@ -324,7 +324,7 @@ void chooseForm(Playback& p, VulkanContext* context) {
     p.animated.pose(0, p.control);
     FormChoice choice = fasterForm(p.o.backend, p.refinement, context, p.control, p.refined);
     p.form = choice.form;
-    if (choice.tiled) p.evaluator = std::move(choice.tiled);
+    if (choice.tiled) p.evaluator = std::move(choice.tiled), dropPerLevelTables(p.refinement);
     p.formReason = std::move(choice.reason);
 }
 

@@ -488,6 +488,7 @@ void Viewer::adopt(Built b) {
         std::vector<float> control(3 * std::size_t(animated.mesh.faces.vertexCount)), scratch(3 * std::size_t(r.tiled.refinedCount));
         animated.pose(0, control);
         choice = fasterForm(o.backend, r, context.get(), control, scratch);
+        if (choice.tiled) dropPerLevelTables(built->ps);
     }
     psForm = choice.form;
     for (int s = 0; s < framesInFlight; ++s) {
