@@ -2,15 +2,18 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run.
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build]
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|pair]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
 // "build", only the builds, ROUNDS times each in one process with psub's allocator settings
-// (the per-level table with its surface; the tiled form's lean build), for perf.
+// (the per-level table with its surface; the tiled form's lean build), for perf; with "pair",
+// the per-level rows of one mesh on 1 thread, of two copies side by side on 2 threads, and of
+// one mesh on 2 threads (what a second thread is worth to one mesh, and to two).
 #include "detail.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
 #include <malloc.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <chrono>
@@ -45,7 +48,7 @@ double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control
 
 int main(int argc, char** argv) {
     if (argc < 3) {
-        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS]\n");
+        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|pair]\n");
         return 2;
     }
     const std::string model = argv[1];
@@ -93,6 +96,37 @@ int main(int argc, char** argv) {
     std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     std::vector<float> out(3 * std::size_t(tiled.refinedCount));
     const double bytes = 12.0 * tiled.refinedCount;
+    if (argc > 5 && std::string(argv[5]) == "pair") {
+        // Does a second thread help one mesh as much as it helps two? The per-level rows of one
+        // mesh on 1 thread, of two copies side by side (one evaluator of 1 thread each, both
+        // threads at once) and of one mesh on 2 threads, FRAMES frames of each in turn.
+        using Evaluator = psub::CpuEvaluator<float>;
+        Evaluator one(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
+        Evaluator copy(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
+        Evaluator two(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 2);
+        std::vector<float> out2(out.size());
+        const auto timed = [&](auto&& frame) {
+            std::vector<double> times;
+            for (int f = 0; f < frames; ++f) {
+                const auto start = std::chrono::steady_clock::now();
+                frame();
+                times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+            }
+            return median(times);
+        };
+        for (int round = 0; round < rounds; ++round) {
+            const double single = timed([&] { one.evaluate(control, out); });
+            const double sideBySide = timed([&] {
+#pragma omp parallel num_threads(2)
+                (omp_get_thread_num() == 0 ? one : copy).evaluate(control, omp_get_thread_num() == 0 ? out : out2);
+            });
+            const double shared = timed([&] { two.evaluate(control, out); });
+            std::printf("per-level rows: one mesh on 1 thread %.3f ms; two copies side by side %.3f ms; "
+                        "one mesh on 2 threads %.3f ms\n",
+                        single, sideBySide, shared);
+        }
+        return 0;
+    }
     if (argc > 5 && std::string(argv[5]) == "profile") {
         // The thread's CPU time per frame too: on a shared machine it counts only this work.
         psub::CpuEvaluator<float> tiledEvaluator(tiled, 3, 1);
