@@ -1,0 +1,94 @@
+// psub_gpu_frame (a benchmark, not a test): the tiled form of a generated N x N quad torus on a
+// Vulkan device, a frame = evaluate + normals with the results kept on the device (what `psub
+// play --backend vulkan --render` draws from), the GPU time of each frame from timestamp queries
+// and the host's wall time around it, medians. Made for a GPU lent for minutes
+// (bench/gpu_run.sh builds the carried folder here and runs this there); it runs on lavapipe
+// too. The bytes a frame must write at the least (positions and normals, the device's stride:
+// 16 + 16 B per refined vertex) over its GPU time give the bandwidth it reaches; with
+// BANDWIDTH_GBS (the device's copy bandwidth measured in the same run) also its fraction.
+//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|unrolled] [BANDWIDTH_GBS]
+// Prints one line of text and one JSON object (the last line).
+#include "bench.h"
+#include "psub/stencils.h"
+#include "psub/vulkan_context.h"
+#include "psub/vulkan_evaluator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace {
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0 : v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    using psub::bench::parseArgument;
+    const int n = argc > 1 ? int(parseArgument(argv[1], "N", 3, 4096)) : 512;
+    const int levels = argc > 2 ? int(parseArgument(argv[2], "LEVELS", 1, 12)) : 6;
+    const int frames = argc > 3 ? int(parseArgument(argv[3], "FRAMES", 1, 100000)) : 50;
+    const std::string kernelName = argc > 4 ? argv[4] : "auto";
+    const double bandwidth = argc > 5 ? parseArgument(argv[5], "BANDWIDTH_GBS", 0, 1e6, false) : 0;
+    psub::VulkanEvaluatorOptions options;
+    if (kernelName == "workgroup") options.tileKernel = psub::TileKernel::Workgroup;
+    else if (kernelName == "unrolled") options.tileKernel = psub::TileKernel::Unrolled;
+    else if (kernelName != "auto") {
+        std::fprintf(stderr, "psub_gpu_frame: the tile kernel is auto, workgroup or unrolled, not %s\n", kernelName.c_str());
+        return 2;
+    }
+    using Clock = std::chrono::steady_clock;
+    const psub::Mesh mesh = psub::bench::makeTorus(n);
+    const psub::CheckedMesh checked = psub::checkMesh(mesh);
+    psub::RefineOptions refineOptions{levels, psub::Preprocess::Auto, false, {}};
+    refineOptions.tiled = true;
+    refineOptions.perLevel = false;  // the tiled form alone: its lean build
+    const auto buildStart = Clock::now();
+    const psub::Refinement r = psub::refine(mesh, checked.connectivity, refineOptions);
+    const double buildSeconds = std::chrono::duration<double>(Clock::now() - buildStart).count();
+    const psub::TiledTable& tiled = r.tiled;
+    try {
+        psub::VulkanContext context;
+        psub::VulkanEvaluator evaluator(context, tiled, 3, options);
+        std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
+        std::vector<double> gpu, positions, normals, wall;
+        for (int frame = -3; frame < frames; ++frame) {  // three untimed frames first
+            for (std::size_t i = 2; i < control.size(); i += 3) control[i] += 1e-4f;
+            const auto start = Clock::now();
+            evaluator.evaluateKept(control, true);
+            const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+            const psub::GpuFrameTimes times = evaluator.lastFrameTimes();
+            if (frame < 0) continue;
+            wall.push_back(ms);
+            if (times.valid) gpu.push_back(times.totalMs), positions.push_back(times.levelsMs), normals.push_back(times.normalsMs);
+        }
+        const double vertices = tiled.refinedCount, faces = double(tiled.surface.faceOffsets.size() - 1);
+        const double bytes = vertices * 4.0 * sizeof(float) * 2;  // positions and normals, 4 floats each
+        const double gpuMs = median(gpu), reached = gpuMs > 0 ? bytes / (gpuMs * 1e6) : 0;
+        std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; "
+                    "frame (evaluate + normals, kept on the device) GPU %.3f ms (positions %.3f, normals %.3f), "
+                    "wall %.3f ms; it writes %.1f MB a frame: %.1f GB/s",
+                    context.deviceName().c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
+                    100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds, gpuMs, median(positions),
+                    median(normals), median(wall), bytes / 1e6, reached);
+        if (bandwidth > 0) std::printf(" (%.1f%% of %.0f GB/s)", 100 * reached / bandwidth, bandwidth);
+        std::printf("\n{\"device\": \"%s\", \"torus\": %d, \"levels\": %d, \"faces\": %.0f, \"vertices\": %.0f, "
+                    "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", "
+                    "\"build_s\": %.3f, \"frames\": %d, \"timestamps\": %s, \"gpu_ms_median\": %.4f, "
+                    "\"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, \"normals_ms_median\": %.4f, "
+                    "\"wall_ms_median\": %.4f, \"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f}\n",
+                    context.deviceName().c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
+                    double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(), buildSeconds,
+                    frames, gpu.empty() ? "false" : "true", gpuMs, gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end()),
+                    median(positions), median(normals), median(wall), bytes, reached, bandwidth);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "psub_gpu_frame: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# The GPU run of issue 13 (a benchmark, not a test), in two halves:
+#   bench/gpu_run.sh prepare [BUILD_DIR=build]
+#       here, after building: copies psub_gpu_frame and the shared libraries it loads (all but
+#       the C library's own) into .gpu/ at the repository's root, which git ignores
+#       ($PSUB_GPU_DIR instead of .gpu/ where set: the smoke test's).
+#   bench/gpu_run.sh run [quick]
+#       on the GPU's machine, from the repository's root, with .gpu/ carried there: the device's
+#       copy bandwidth (a device-to-device copy through PyTorch, where python3 has it), then
+#       psub_gpu_frame on the torus at 1M, 4.2M and 16.8M faces (the tile kernel the device
+#       gets, then the other one at 16.8M). `quick`: one small torus, for trying the script on
+#       lavapipe. Results: $OUT/gpu.md and $OUT/gpu.jsonl (./gpu-out/ when OUT is unset).
+# bench/README.md ("A run for a GPU") has the commands and what was measured.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+dir=${PSUB_GPU_DIR:-.gpu}
+
+prepare() {
+    local build=${1:-build} binary
+    binary="$build/bench/psub_gpu_frame"
+    [[ -x $binary ]] || { echo "gpu_run.sh: $binary is not built (ninja -C $build bench/psub_gpu_frame)" >&2; exit 1; }
+    rm -rf "$dir" && mkdir -p "$dir/lib"
+    cp "$binary" "$dir/"
+    ldd "$binary" | awk '/=> \// { print $3 }' | while read -r lib; do
+        case "$(basename "$lib")" in
+            libc.so.*|libm.so.*|libpthread.so.*|libdl.so.*|librt.so.*|ld-linux*) ;;
+            *) cp -L "$lib" "$dir/lib/" ;;
+        esac
+    done
+    if [[ $dir == .gpu && -d .git/info ]]; then grep -qx '/.gpu/' .git/info/exclude 2>/dev/null || echo '/.gpu/' >> .git/info/exclude; fi
+    echo "gpu_run.sh: $dir holds $(du -sh "$dir" | cut -f1): carry it, and run: bash bench/gpu_run.sh run"
+}
+
+run() {
+    local out=${OUT:-gpu-out} bandwidth=0 kernel
+    mkdir -p "$out"
+    [[ -x $dir/psub_gpu_frame ]] || { echo "gpu_run.sh: no $dir/psub_gpu_frame (run 'prepare' first, and carry $dir)" >&2; exit 1; }
+    local libs
+    libs="$(cd "$dir" && pwd)/lib"
+    export LD_LIBRARY_PATH="$libs${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    local icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+    [[ -f $icd && -z ${VK_DRIVER_FILES:-} ]] && export VK_DRIVER_FILES=$icd
+    {
+        echo "# psub_gpu_frame, $(date -u '+%Y-%m-%d %H:%M UTC')"
+        echo
+        echo '```'
+        nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm,clocks.max.mem --format=csv 2>/dev/null || echo "no nvidia-smi"
+        echo '```'
+    } > "$out/gpu.md"
+    if python3 -c 'import torch; assert torch.cuda.is_available()' 2>/dev/null; then
+        # Bytes read and written by a 4 GiB device-to-device copy, best of 10 after 3 warm-ups.
+        bandwidth=$(python3 - <<'EOF'
+import torch
+a = torch.empty(1 << 30, dtype=torch.float32, device="cuda"); b = torch.empty_like(a)
+best = 1e9
+for i in range(13):
+    s, e = torch.cuda.Event(enable_timing=True), torch.cuda.Event(enable_timing=True)
+    s.record(); b.copy_(a); e.record(); torch.cuda.synchronize()
+    if i >= 3: best = min(best, s.elapsed_time(e))
+print(f"{2 * a.numel() * 4 / (best * 1e6):.1f}")
+EOF
+)
+        printf '\nDevice copy bandwidth (PyTorch, 4 GiB device to device, read + write, best of 10): %s GB/s\n' "$bandwidth" >> "$out/gpu.md"
+    fi
+    printf '\n```\n' >> "$out/gpu.md"
+    : > "$out/gpu.jsonl"
+    local sizes=("512 2" "512 4" "512 6") other=unrolled
+    [[ ${1:-} == quick ]] && sizes=("64 2") && other=workgroup
+    for size in "${sizes[@]}"; do
+        # shellcheck disable=SC2086
+        "$dir/psub_gpu_frame" $size 50 auto "$bandwidth" > "$out/frame.txt"
+        head -n -1 "$out/frame.txt" | tee -a "$out/gpu.md"
+        tail -n 1 "$out/frame.txt" >> "$out/gpu.jsonl"
+    done
+    kernel=$other
+    # shellcheck disable=SC2086
+    "$dir/psub_gpu_frame" ${sizes[-1]} 20 "$kernel" "$bandwidth" > "$out/frame.txt"
+    head -n -1 "$out/frame.txt" | tee -a "$out/gpu.md"
+    tail -n 1 "$out/frame.txt" >> "$out/gpu.jsonl"
+    rm -f "$out/frame.txt"
+    printf '```\n' >> "$out/gpu.md"
+    echo "gpu_run.sh: results in $out/gpu.md and $out/gpu.jsonl"
+}
+
+case "${1:-}" in
+    prepare) shift; prepare "$@" ;;
+    run) shift; run "$@" ;;
+    *) echo "usage: bench/gpu_run.sh prepare [BUILD_DIR] | run [quick]" >&2; exit 2 ;;
+esac
