@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Smoke test of the GPU run's script on whatever Vulkan device this machine has (lavapipe in
 the tests): `bench/gpu_run.sh prepare` into WORKDIR/carried, then `run quick` into WORKDIR/out;
-both JSON lines parse with their fields, and the device gave timestamps. Never judges speed.
+both JSON lines parse with their fields, the device gave timestamps, and its frame agreed with
+the CPU's tiled evaluator. Never judges speed.
 No Vulkan device fails, unless PSUB_ALLOW_NO_VULKAN=1 (then exit 77: skipped).
 
 usage: check_gpu_frame.py BUILD_DIR WORKDIR
@@ -47,6 +48,8 @@ def main():
                 fail("field %s missing or not %s in %s" % (name, kind, r))
         if not r["timestamps"] or r["gpu_ms_median"] <= 0 or r["faces"] != 16384 or r["tiled_share"] != 1.0:
             fail("no GPU time, or not the quick torus wholly tiled: %s" % r)
+        if r.get("agrees") is not True:
+            fail("the device's frame differs from the CPU's tiled evaluator: %s" % r)
     with open(os.path.join(workdir, "out", "gpu.md")) as f:
         if f.read().count("GPU ") < 2:
             fail("gpu.md lacks the two frame lines")

@@ -5,16 +5,20 @@
 // (bench/gpu_run.sh builds the carried folder here and runs this there); it runs on lavapipe
 // too. The bytes a frame must write at the least (positions and normals, the device's stride:
 // 16 + 16 B per refined vertex) over its GPU time give the bandwidth it reaches; with
-// BANDWIDTH_GBS (the device's copy bandwidth measured in the same run) also its fraction.
+// BANDWIDTH_GBS (the device's copy bandwidth measured in the same run) also its fraction. One
+// frame is then read back and compared with the CPU's tiled evaluator (exit 1 beyond the
+// contract's tolerances): the GPU run checks the results on the GPU too.
 //   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|unrolled] [BANDWIDTH_GBS]
 // Prints one line of text and one JSON object (the last line).
 #include "bench.h"
+#include "psub/evaluator.h"
 #include "psub/stencils.h"
 #include "psub/vulkan_context.h"
 #include "psub/vulkan_evaluator.h"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -67,6 +71,23 @@ int main(int argc, char** argv) {
             wall.push_back(ms);
             if (times.valid) gpu.push_back(times.totalMs), positions.push_back(times.levelsMs), normals.push_back(times.normalsMs);
         }
+        // One more frame read back and checked against the CPU's tiled evaluator: positions within
+        // 1e-6 of the bounding-box diagonal, normals within 1e-5 (the contract's tolerances).
+        std::vector<float> refined(3 * std::size_t(tiled.refinedCount)), normalsOut(refined.size());
+        std::vector<float> cpuRefined(refined.size()), cpuNormals(refined.size());
+        evaluator.evaluate(control, refined, normalsOut);
+        psub::CpuEvaluator<float>(tiled, 3).evaluate(control, cpuRefined, cpuNormals);
+        float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+        double positionDiff = 0, normalDiff = 0;
+        for (std::size_t i = 0; i < refined.size(); ++i) {
+            lo[i % 3] = std::min(lo[i % 3], cpuRefined[i]), hi[i % 3] = std::max(hi[i % 3], cpuRefined[i]);
+            positionDiff = std::max(positionDiff, double(std::abs(refined[i] - cpuRefined[i])));
+            normalDiff = std::max(normalDiff, double(std::abs(normalsOut[i] - cpuNormals[i])));
+        }
+        const double diagonal = std::sqrt(double(hi[0] - lo[0]) * (hi[0] - lo[0]) + double(hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                          double(hi[2] - lo[2]) * (hi[2] - lo[2]));
+        positionDiff /= std::max(diagonal, 1e-30);
+        const bool agrees = positionDiff <= 1e-6 && normalDiff <= 1e-5;
         const double vertices = tiled.refinedCount, faces = double(tiled.surface.faceOffsets.size() - 1);
         const double bytes = vertices * 4.0 * sizeof(float) * 2;  // positions and normals, 4 floats each
         const double gpuMs = median(gpu), reached = gpuMs > 0 ? bytes / (gpuMs * 1e6) : 0;
@@ -77,15 +98,20 @@ int main(int argc, char** argv) {
                     100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds, gpuMs, median(positions),
                     median(normals), median(wall), bytes / 1e6, reached);
         if (bandwidth > 0) std::printf(" (%.1f%% of %.0f GB/s)", 100 * reached / bandwidth, bandwidth);
+        std::printf("; against the CPU's tiled evaluator: positions %.2g of the diagonal, normals %.2g%s", positionDiff,
+                    normalDiff, agrees ? "" : " (FAILED: above 1e-6 and 1e-5)");
         std::printf("\n{\"device\": \"%s\", \"torus\": %d, \"levels\": %d, \"faces\": %.0f, \"vertices\": %.0f, "
                     "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", "
                     "\"build_s\": %.3f, \"frames\": %d, \"timestamps\": %s, \"gpu_ms_median\": %.4f, "
                     "\"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, \"normals_ms_median\": %.4f, "
-                    "\"wall_ms_median\": %.4f, \"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f}\n",
+                    "\"wall_ms_median\": %.4f, \"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f, "
+                    "\"position_difference\": %.3g, \"normal_difference\": %.3g, \"agrees\": %s}\n",
                     context.deviceName().c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
                     double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(), buildSeconds,
                     frames, gpu.empty() ? "false" : "true", gpuMs, gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end()),
-                    median(positions), median(normals), median(wall), bytes, reached, bandwidth);
+                    median(positions), median(normals), median(wall), bytes, reached, bandwidth, positionDiff, normalDiff,
+                    agrees ? "true" : "false");
+        if (!agrees) return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "psub_gpu_frame: error: %s\n", e.what());
         return 1;
