@@ -156,7 +156,7 @@ struct Built {
 int ccLevelsFor(int levels) { return levels / 2; }
 
 // ViewOptions::form.
-constexpr int kFormAuto = 0, kFormTiled = 2;
+constexpr int kFormAuto = 0, kFormPerLevel = 1, kFormTiled = 2;
 
 // The P-S tables for `form`: both forms for auto (the choice is timed when they are adopted),
 // the tiled form alone (its lean build) when forced, else the per-level table.
@@ -957,7 +957,7 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
                    "else wave); plays in wall-clock time, looping");
     addChoice(vi, "--backend", o.backend, kCpuOrVulkan, "where the P-S stencils and normals run: cpu or vulkan", "cpu");
     addChoice(vi, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (r toggles)", "paper");
-    static const std::map<std::string, int> forms = {{"auto", kFormAuto}, {"per-level", 1}, {"tiled", kFormTiled}};
+    static const std::map<std::string, int> forms = {{"auto", kFormAuto}, {"per-level", kFormPerLevel}, {"tiled", kFormTiled}};
     addChoice(vi, "--form", o.form, forms,
               "P-S table form: auto (as psub play: the tiled form when a quick timing of both, at each level "
               "built, finds it faster than the per-level rows), per-level or tiled",
