@@ -32,7 +32,7 @@ prepare() {
 }
 
 run() {
-    local out=${OUT:-gpu-out} bandwidth=0 kernel
+    local out=${OUT:-gpu-out} bandwidth=0
     mkdir -p "$out"
     [[ -x $dir/psub_gpu_frame ]] || { echo "gpu_run.sh: no $dir/psub_gpu_frame (run 'prepare' first, and carry $dir)" >&2; exit 1; }
     local libs
@@ -64,22 +64,29 @@ EOF
     fi
     printf '\n```\n' >> "$out/gpu.md"
     : > "$out/gpu.jsonl"
-    local sizes=("512 2" "512 4" "512 6") other=unrolled
+    local sizes=("512 2" "512 4" "512 6") other=unrolled status=0
     [[ ${1:-} == quick ]] && sizes=("64 2") && other=workgroup
+    # One measurement: its text line to gpu.md, its JSON line to gpu.jsonl; a failure (an error,
+    # or a frame that disagrees with the CPU) is written down and the next sizes still run.
+    frame() {
+        if "$dir/psub_gpu_frame" "$@" "$bandwidth" > "$out/frame.txt" 2> "$out/error.txt"; then
+            head -n -1 "$out/frame.txt" | tee -a "$out/gpu.md"
+            tail -n 1 "$out/frame.txt" >> "$out/gpu.jsonl"
+        else
+            status=1
+            echo "FAILED: psub_gpu_frame $*" | cat - "$out/frame.txt" "$out/error.txt" | tee -a "$out/gpu.md" >&2
+        fi
+    }
     for size in "${sizes[@]}"; do
         # shellcheck disable=SC2086
-        "$dir/psub_gpu_frame" $size 50 auto "$bandwidth" > "$out/frame.txt"
-        head -n -1 "$out/frame.txt" | tee -a "$out/gpu.md"
-        tail -n 1 "$out/frame.txt" >> "$out/gpu.jsonl"
+        frame $size 50 auto
     done
-    kernel=$other
     # shellcheck disable=SC2086
-    "$dir/psub_gpu_frame" ${sizes[-1]} 20 "$kernel" "$bandwidth" > "$out/frame.txt"
-    head -n -1 "$out/frame.txt" | tee -a "$out/gpu.md"
-    tail -n 1 "$out/frame.txt" >> "$out/gpu.jsonl"
-    rm -f "$out/frame.txt"
+    frame ${sizes[-1]} 20 "$other"
+    rm -f "$out/frame.txt" "$out/error.txt"
     printf '```\n' >> "$out/gpu.md"
     echo "gpu_run.sh: results in $out/gpu.md and $out/gpu.jsonl"
+    return "$status"
 }
 
 case "${1:-}" in
