@@ -283,44 +283,65 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     if (withFactorized) forms.push_back(TableForm::Factorized);
     forms.push_back(TableForm::Tiled);
     std::vector<float> canonical;
+    // Frames with and without normals, and the rest pose against the first record's (in canonical
+    // order: the tiled form's drawing order mapped back outside the timing).
+    const auto measure = [&](Record& r, CpuEvaluator<float>& evaluator, TableForm form) {
+        progress.show(label + ": " + r.evaluator + " " + std::to_string(r.threads) + " thr");
+        r.buildRepetitions = repetitions;
+        r.timing = timeFrames(
+            frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+            [&] { evaluator.evaluate(control, out); });
+        r.normalsTiming = timeFrames(
+            frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+            [&] { evaluator.evaluate(control, out, normals); });
+        r.hasNormals = true;
+        animation.writeRest(control.data(), 3);
+        evaluator.evaluate(control, out);
+        if (form == TableForm::Tiled) {
+            canonical.resize(out.size());
+            toCanonical<float>(refinement.tiled, out, canonical, 3);
+            out.swap(canonical);
+        }
+        if (reference.empty()) {
+            reference = out;
+            shape = measureShape(std::span<const std::uint32_t>(refinement.surface.faceOffsets),
+                                 std::span<const std::uint32_t>(refinement.surface.faceVerts), reference.data(),
+                                 refinedCount, 3);
+        }
+        r.maxDiff = maxDifference(out.data(), 3, reference.data(), 3, refinedCount) / shape.diagonal;
+        r.shape = shape;
+        if (!(r.maxDiff <= 1e-5))
+            warnings.push_back(model.name + " P-S " + std::to_string(levels) + " levels: " + r.evaluator + " (" +
+                               std::to_string(r.threads) + " threads) differs from psub-cpu-perlevel by " +
+                               std::to_string(r.maxDiff) + " of the bounding-box diagonal");
+        records.push_back(r);
+    };
     for (TableForm form : forms)
         for (int threads : threadCounts) {
             Record r = psubRecord(model, levels, k, refinement, form, "psub-cpu", build);
             r.threads = threads;
-            r.buildRepetitions = repetitions;
-            progress.show(label + ": " + r.evaluator + " " + std::to_string(threads) + " thr");
             CpuEvaluator<float> evaluator = form == TableForm::Tiled
                                                 ? CpuEvaluator<float>(refinement.tiled, 3, threads)
                                                 : CpuEvaluator<float>(perLevel, factorized, refinement.surface, form, 3, threads);
-            r.timing = timeFrames(
-                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
-                [&] { evaluator.evaluate(control, out); });
-            r.normalsTiming = timeFrames(
-                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
-                [&] { evaluator.evaluate(control, out, normals); });
-            r.hasNormals = true;
-
-            animation.writeRest(control.data(), 3);
-            evaluator.evaluate(control, out);
-            if (form == TableForm::Tiled) {  // drawing order -> canonical, outside the timing
-                canonical.resize(out.size());
-                toCanonical<float>(refinement.tiled, out, canonical, 3);
-                out.swap(canonical);
-            }
-            if (reference.empty()) {
-                reference = out;
-                shape = measureShape(std::span<const std::uint32_t>(refinement.surface.faceOffsets),
-                                     std::span<const std::uint32_t>(refinement.surface.faceVerts),
-                                     reference.data(), refinedCount, 3);
-            }
-            r.maxDiff = maxDifference(out.data(), 3, reference.data(), 3, refinedCount) / shape.diagonal;
-            r.shape = shape;
-            if (!(r.maxDiff <= 1e-5))
-                warnings.push_back(model.name + " P-S " + std::to_string(levels) + " levels: " + r.evaluator + " (" +
-                                   std::to_string(threads) + " threads) differs from psub-cpu-perlevel by " +
-                                   std::to_string(r.maxDiff) + " of the bounding-box diagonal");
-            records.push_back(r);
+            measure(r, evaluator, form);
         }
+    // The per-level rows ordered by region, one region per thread (docs/design.md, "Threads and
+    // regions"; psub play's candidate when a frame runs on several threads): all threads only,
+    // the ordering counted in the table's build.
+    if (const int regionCount = perLevelFrameThreads(perLevel, 3, allThreads); regionCount > 1) {
+        PerLevelTable regions = perLevel;
+        const auto orderStart = Clock::now();
+        orderLevelsByRegion(regions, std::uint32_t(regionCount));
+        const double orderMs = msSince(orderStart);
+        Record r = psubRecord(model, levels, k, refinement, TableForm::PerLevel, "psub-cpu", build);
+        r.evaluator = "psub-cpu-regions";
+        r.table = "per-level by " + std::to_string(regionCount) + " regions";
+        r.tableMs += orderMs;
+        r.buildMs += orderMs;
+        r.threads = allThreads;
+        CpuEvaluator<float> evaluator(regions, factorized, refinement.surface, TableForm::PerLevel, 3, allThreads);
+        measure(r, evaluator, TableForm::PerLevel);
+    }
     tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN
     benchVulkan(model, levels, k, refinement, build, forms, animation, reference, shape, frames, progress, label, records,

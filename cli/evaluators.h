@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -37,48 +38,79 @@ inline std::unique_ptr<Evaluator> makeEvaluator(Backend backend, const Evaluator
 #endif
 }
 
-// Median milliseconds of 5 evaluations of `control` into `out` (3 x refined floats), after one
-// to warm up.
+// `ms` with three decimals.
+inline std::string millis(double ms) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3f", ms);
+    return text;
+}
+
+// Median milliseconds of 5 evaluations of `control` into `out` (3 x refined floats) with
+// normals, as psub play and psub view run every frame (the tiled form computes most normals in
+// its tile pass, the others in passes after the positions), after one to warm up.
 inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& control, std::vector<float>& out) {
+    std::vector<float> normals(out.size());
     std::vector<double> ms;
-    evaluator.evaluate(control, out);  // warm-up
+    evaluator.evaluate(control, out, normals);  // warm-up
     for (int k = 0; k < 5; ++k) {
         const auto start = std::chrono::steady_clock::now();
-        evaluator.evaluate(control, out);
+        evaluator.evaluate(control, out, normals);
         ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     }
     std::sort(ms.begin(), ms.end());
     return ms[ms.size() / 2];
 }
 
-// The auto table form: the tiled one when `r` (built with both forms) has tiles and a quick
-// timing of both on `control` (quickFrameMs, on `backend`) finds it faster than the per-level
-// rows; on meshes whose finest points come mostly from the fallback it is slower
-// (docs/tiled.md). One evaluator at a time (a device's memory may hold one mesh's tables, not
-// two): `tiled` is the tiled one when it won, else empty (make the per-level one again).
-// `reason`: "auto: ...", for summaries. On lavapipe the tile kernel's first compile takes
-// seconds (Mesa's shader cache keeps it).
+// The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
+// each candidate on `control`: the per-level rows; the tiled form when `r` (built with both forms) has tiles (on
+// meshes whose finest points come mostly from the fallback it is slower: docs/tiled.md); and,
+// on the CPU when a frame runs on several threads, the per-level rows ordered by region, one
+// region per thread (orderLevelsByRegion; docs/design.md, "Threads and regions": faster where
+// a thread reading another's fresh writes is dear, slower on one thread). One evaluator at a
+// time (a device's memory may hold one mesh's tables, not two): `tiled` is the tiled one when
+// it won, else empty (make the per-level one again); when the region order won, r.perLevel is
+// the region-ordered table (the same output, bit for bit). `reason`: "auto: ...", for
+// summaries. On lavapipe the tile kernel's first compile takes seconds (Mesa's shader cache
+// keeps it).
 struct FormChoice {
     TableForm form = TableForm::PerLevel;
     std::unique_ptr<Evaluator> tiled;
     std::string reason;
 };
 template <class Refinement>
-FormChoice fasterForm(Backend backend, const Refinement& r, VulkanContext* context, const std::vector<float>& control,
+FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, const std::vector<float>& control,
                       std::vector<float>& out) {
     FormChoice choice;
-    if (r.tiled.tileCount() == 0) {
+    const bool tiles = r.tiled.tileCount() > 0;
+    const int threads = backend == Backend::Cpu && r.perLevel.regions == 1 && r.perLevel.levels.size() > 1
+                            ? perLevelFrameThreads(r.perLevel)
+                            : 1;
+    if (!tiles && threads == 1) {
         choice.reason = "auto: no regular tiles";
         return choice;
     }
     const double perLevelMs = quickFrameMs(*makeEvaluator(backend, tablesOf(r), TableForm::PerLevel, context), control, out);
-    std::unique_ptr<Evaluator> tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
-    const double tiledMs = quickFrameMs(*tiled, control, out);
-    if (tiledMs < perLevelMs) choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
-    char reason[160];
-    std::snprintf(reason, sizeof reason, "auto: %.0f%% of the points tiled; rest pose %.3f ms tiled, %.3f ms per-level",
-                  100.0 * r.tiled.fallbackBegin / std::max(1u, r.tiled.refinedCount), tiledMs, perLevelMs);
-    choice.reason = reason;
+    double bestMs = perLevelMs;
+    std::string times = "rest pose with normals " + millis(perLevelMs) + " ms per-level";
+    if (tiles) {
+        std::unique_ptr<Evaluator> tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
+        const double tiledMs = quickFrameMs(*tiled, control, out);
+        times += ", " + millis(tiledMs) + " ms tiled";
+        if (tiledMs < bestMs) bestMs = tiledMs, choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
+    }
+    if (threads > 1) {
+        PerLevelTable regions = r.perLevel;
+        orderLevelsByRegion(regions, std::uint32_t(threads));
+        const EvaluatorTables tables{regions, r.factorized, r.surface, r.tiled};
+        const double regionMs = quickFrameMs(*makeEvaluator(backend, tables, TableForm::PerLevel, context), control, out);
+        times += ", " + millis(regionMs) + " ms per-level by " + std::to_string(threads) + " regions";
+        if (regionMs < bestMs)
+            choice.form = TableForm::PerLevel, choice.tiled.reset(), r.perLevel = std::move(regions);
+    }
+    choice.reason = tiles ? "auto: " + std::to_string(int(std::lround(100.0 * r.tiled.fallbackBegin /
+                                                                        std::max(1u, r.tiled.refinedCount)))) +
+                                "% of the points tiled; " + times
+                          : "auto: no regular tiles; " + times;
     return choice;
 }
 

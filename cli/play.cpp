@@ -455,7 +455,8 @@ void report(const Playback& p, const Timings& t) {
         Json json = {{"input", o.input}, {"animation", p.animated.name}, {"levels", o.levels},
                      {"refined_faces", faces}, {"refined_vertices", refinedCount(p.refinement)},
                      {"frames", t.frames.size()}, {"fps", framesPerSecond(t)}, {"backend", backend},
-                     {"device", p.device}, {"form", formName(p)}, {"host_threads", p.hostThreads},
+                     {"device", p.device}, {"form", formName(p)},
+                     {"regions", p.form == TableForm::Tiled ? 1u : p.refinement.perLevel.regions}, {"host_threads", p.hostThreads},
                      {"render", p.rendering() ? Json{{"width", o.width}, {"height", o.height}} : Json(nullptr)},
                      {"stages", stagesJson(t)}, {"verified_frames", p.verifier ? p.verifier->frames : 0},
                      {"max_relative_error", p.verifier ? p.verifier->maxError : 0.0}};
@@ -511,8 +512,9 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addChoice(pl, "--backend", o.backend, kCpuOrVulkan,
               "where the stencils and normals run: cpu (threads) or vulkan (compute shaders)", "cpu");
     addChoice(pl, "--form", o.form, kPlayForms,
-              "table form: auto (the tiled form when a quick timing of both at load, on the chosen backend, "
-              "finds it faster than the per-level rows), per-level, factorized or tiled",
+              "table form: auto (the fastest of a quick timing at load, positions and normals, on the chosen "
+              "backend: the per-level rows, the tiled form, and on several CPU threads the per-level rows "
+              "ordered by region), per-level, factorized or tiled",
               "auto");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");

@@ -487,7 +487,7 @@ void Viewer::adopt(Built b) {
     if (o.form == kFormAuto) {
         std::vector<float> control(3 * std::size_t(animated.mesh.faces.vertexCount)), scratch(3 * std::size_t(r.tiled.refinedCount));
         animated.pose(0, control);
-        choice = fasterForm(o.backend, r, context.get(), control, scratch);
+        choice = fasterForm(o.backend, built->ps, context.get(), control, scratch);
         if (choice.tiled) dropPerLevelTables(built->ps);
     }
     psForm = choice.form;
@@ -959,8 +959,8 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
     addChoice(vi, "--rules", o.rules, kRulesNames, "P-S rules: paper, or robust (r toggles)", "paper");
     static const std::map<std::string, int> forms = {{"auto", kFormAuto}, {"per-level", kFormPerLevel}, {"tiled", kFormTiled}};
     addChoice(vi, "--form", o.form, forms,
-              "P-S table form: auto (as psub play: the tiled form when a quick timing of both, at each level "
-              "built, finds it faster than the per-level rows), per-level or tiled",
+              "P-S table form: auto (as psub play: the fastest of a quick timing at each level built: the "
+              "per-level rows, the tiled form, on several CPU threads the rows ordered by region), per-level or tiled",
               "auto");
     addChoice(vi, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (b toggles)", "paper");
     addChoice(vi, "--wireframe", o.wireframe, wireframes, "none, refined or control (w cycles)", "none");

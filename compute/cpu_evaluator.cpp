@@ -51,6 +51,26 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
     return {t == 0 ? 0 : rowAt(total * t / n), t + 1 == n ? level.rowEnd - level.rowBegin : rowAt(total * (t + 1) / n)};
 }
 
+// This thread's rows of level k, from `source` into `destination`: an even share of every row
+// group when the table is region-ordered (each thread one region of the mesh at every level,
+// reading mostly its own writes: docs/design.md, "Threads and regions"; a group's rows have one
+// shape, so equal counts are equal work), else shareByWork's one range.
+template <class T>
+void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
+                        T* destination) {
+    const StencilLevel& level = table.levels[k];
+    if (table.regions == 1 || omp_get_num_threads() == 1) {
+        const auto [begin, end] = shareByWork(table, level);
+        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end);
+    }
+    for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+        const RowGroup& group = table.groups[g];
+        const auto [begin, end] = share(group.rowCount);
+        const std::uint64_t first = group.rowBegin - level.rowBegin;
+        if (begin < end) evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end);
+    }
+}
+
 // Threads worth starting for `values` output values: a parallel region and its barriers cost
 // microseconds (milliseconds when the machine is oversubscribed), so small meshes run on one.
 int teamFor(std::uint64_t values, int threads) {
@@ -70,6 +90,11 @@ T* threadScratch(std::size_t size) {
 }
 
 }  // namespace
+
+int perLevelFrameThreads(const PerLevelTable& table, std::uint32_t width, int threads) {
+    return teamFor(std::uint64_t(table.refinedCount()) * width * (table.levels.size() > 1 ? 2 : 1),
+                   threads > 0 ? threads : omp_get_max_threads());
+}
 
 template <class T>
 CpuEvaluator<T>::CpuEvaluator(const PerLevelTable& perLevel, const FactorizedTable& factorized,
@@ -122,7 +147,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     assert(control.size() >= std::size_t(controlCount()) * width_);
     assert(refined.size() >= std::size_t(refinedCount()) * width_);
     const BufferLayout packed{0, width_, width_};
-    const int team = teamFor(std::uint64_t(refinedCount()) * width_ * (perLevel_.levels.size() > 1 ? 2 : 1), threads_);
+    const int team = perLevelFrameThreads(perLevel_, width_, threads_);
     if (form_ == TableForm::Factorized) {
 #pragma omp parallel num_threads(team) if (team > 1)
         {
@@ -142,9 +167,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        const StencilLevel& level = perLevel_.levels[k];
-        const auto [begin, end] = shareByWork(perLevel_, level);
-        evaluateLevelRows(perLevel_, k, source, packed, destination, packed, begin, end);
+        evaluateLevelShare(perLevel_, k, source, packed, destination);
 #pragma omp barrier
     }
 }
@@ -179,8 +202,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            const auto [begin, end] = shareByWork(perLevel_, perLevel_.levels[k]);
-            evaluateLevelRows(perLevel_, k, source, packed, destination, packed, begin, end);
+            evaluateLevelShare(perLevel_, k, source, packed, destination);
 #pragma omp barrier
         }
         T* scratch = threadScratch<T>(scratchSize);

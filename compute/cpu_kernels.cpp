@@ -62,7 +62,7 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
 template <int N, int M>
 void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                     const float* source, BufferLayout sl, std::uint32_t sourceCount, float* destination,
-                    BufferLayout dl) {
+                    BufferLayout dl, bool ascending) {
     const __m128 centre = _mm_set1_ps(float(g.centre)), edge = _mm_set1_ps(float(g.edge)),
                  diagonal = _mm_set1_ps(float(g.diagonal));
     const std::uint32_t n = N >= 0 ? std::uint32_t(N) : g.n, m = M >= 0 ? std::uint32_t(M) : g.m;
@@ -94,11 +94,12 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
         _mm_store_ss(out + 2, _mm_movehl_ps(v, v));
     };
     if (r0 >= r1) return;
-    // Destinations ascend within a group; when the range's are consecutive (a level's new
-    // face points, say), they need not be read, and a row's 16-byte store may spill into the
+    // When destinations ascend within the group (`ascending`: every level of a table as refined,
+    // the intermediate ones of a region-ordered table) and the range's are consecutive (a level's
+    // new face points, say), they need not be read, and a row's 16-byte store may spill into the
     // next row's vertex, written next by this thread (packed destinations only).
     const std::uint32_t first = destinations[r0];
-    if (destinations[r1 - 1] - first == r1 - 1 - r0) {
+    if (ascending && destinations[r1 - 1] - first == r1 - 1 - r0) {
         float* out = destination + std::size_t(first) * dl.stride + dl.offset;
         if (dl.stride == 3) {
             for (std::uint64_t r = r0; r + 1 < r1; ++r, out += 3) _mm_storeu_ps(out, row(r));
@@ -116,15 +117,18 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
 template <class T, int W>
 void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                           const T* source, BufferLayout sl, std::uint32_t sourceCount, T* destination,
-                          BufferLayout dl) {
+                          BufferLayout dl, [[maybe_unused]] bool ascending) {
 #if defined(__SSE2__)
     if constexpr (std::is_same_v<T, float> && W == 3) {
-        if (g.n == 3 && g.m == 0) return applyGroupSse3<3, 0>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
-        if (g.n == 4 && g.m == 4) return applyGroupSse3<4, 4>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
-        if (g.n == 0 && g.m == 0) return applyGroupSse3<0, 0>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
-        if (g.n == 2 && g.m == 0) return applyGroupSse3<2, 0>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
-        if (g.n == 3 && g.m == 3) return applyGroupSse3<3, 3>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
-        return applyGroupSse3<-1, -1>(table, g, r0, r1, source, sl, sourceCount, destination, dl);
+        const auto apply = [&]<int N, int M>() {
+            applyGroupSse3<N, M>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+        };
+        if (g.n == 3 && g.m == 0) return apply.template operator()<3, 0>();
+        if (g.n == 4 && g.m == 4) return apply.template operator()<4, 4>();
+        if (g.n == 0 && g.m == 0) return apply.template operator()<0, 0>();
+        if (g.n == 2 && g.m == 0) return apply.template operator()<2, 0>();
+        if (g.n == 3 && g.m == 3) return apply.template operator()<3, 3>();
+        return apply.template operator()<-1, -1>();
     }
 #else
     (void)sourceCount;
@@ -141,13 +145,15 @@ template <class T, int W>
 void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* source,
                BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
                std::uint64_t rowEnd) {
+    // A region-ordered table's finest level lists each group's rows by region, not by destination.
+    const bool ascending = table.regions == 1 || &level != &table.levels.back();
     for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
         const RowGroup& g = table.groups[gi];
         const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
         if (begin < end)
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
-                                       destination, dl);
+                                       destination, dl, ascending);
     }
 }
 

@@ -115,6 +115,23 @@ TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
     EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles)")) << run.out;
 }
 
+// On several CPU threads auto also times the per-level rows ordered by region (one region per
+// thread); whichever wins plays the oracle's frames, and the JSON names the table's regions.
+TEST(PlayForm, AutoAlsoTimesTheRegionOrderOnSeveralThreads) {
+    ::setenv("OMP_NUM_THREADS", "2", 1);  // two threads whatever this machine has
+    const std::string cow = psub::test::dataPath("cow.obj");
+    const Outcome run = psub("play '" + cow + "' --levels 3 --frames 2 --anim twist --verify");
+    const Outcome json = psub("play '" + cow + "' --levels 3 --frames 2 --json");
+    ::unsetenv("OMP_NUM_THREADS");
+    EXPECT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles; rest pose with normals ")) << run.out;
+    EXPECT_TRUE(contains(run.out, " ms per-level by 2 regions)")) << run.out;
+    EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
+    EXPECT_EQ(json.status, 0) << json.err;
+    EXPECT_TRUE(contains(json.out, "\"regions\": 1") || contains(json.out, "\"regions\": 2")) << json.out;
+    EXPECT_TRUE(contains(json.out, "\"form\": \"per-level\"")) << json.out;
+}
+
 TEST(PlayForm, AnUnknownFormIsAUsageError) {
     const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --form fastest");
     EXPECT_EQ(run.status, 2);

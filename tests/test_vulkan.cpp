@@ -208,6 +208,21 @@ TEST_F(Vulkan, PerLevelResultsAreBitIdenticalToTheCpu) {
     EXPECT_EQ(maxDifference(actual, expected), 0.0);
 }
 
+// The per-level table ordered by region (orderLevelsByRegion): the device reads each row's
+// destination, so the same bits as the table as refined.
+TEST_F(Vulkan, ARegionOrderedTableGivesTheSameBits) {
+    const Tables t = tablesFor(test::dataPath("cow.obj"), 3);
+    PerLevelTable ordered = t.perLevel;
+    orderLevelsByRegion(ordered, 3);
+    VulkanEvaluator asRefined(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3);
+    VulkanEvaluator byRegion(context(), ordered, t.factorized, t.surface, TableForm::PerLevel, 3);
+    const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 1);
+    std::vector<float> expected(3 * std::size_t(t.perLevel.refinedCount())), actual(expected.size());
+    asRefined.evaluate(control, expected);
+    byRegion.evaluate(control, actual);
+    EXPECT_EQ(actual, expected);
+}
+
 TEST_F(Vulkan, StorageBufferAndTexelReadsGiveTheSameResults) {
     // Kernels read inputs and tables through texel buffers where the device allows it;
     // PSUB_VULKAN_TEXELS=0 selects the storage-buffer reads. Both match the CPU (widths 3 and 4,

@@ -3,6 +3,7 @@
 // one, a tile on every regular block, also with its normals in the tile pass); the counts must
 // match the closed form and the table forms must agree (the tiled one once put back in
 // canonical order); the tiled form's lean build (no per-level table) must make the same table;
+// the per-level table ordered by region (2 or 3 regions) must give the same bits;
 // within the numeric-range policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -54,6 +55,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         tiled.evaluate(mesh.positions, fused, normals);
         for (std::size_t i = 0; i < fused.size(); ++i)
             if (std::bit_cast<std::uint64_t>(fused[i]) != std::bit_cast<std::uint64_t>(drawing[i])) std::abort();
+        {
+            psub::PerLevelTable regions = r.perLevel;
+            psub::orderLevelsByRegion(regions, 2 + std::uint32_t(size % 3 == 0));
+            psub::CpuEvaluator<double> ordered(regions, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
+            ordered.evaluate(mesh.positions, c);
+            for (std::size_t i = 0; i < c.size(); ++i)
+                if (std::bit_cast<std::uint64_t>(c[i]) != std::bit_cast<std::uint64_t>(a[i])) std::abort();
+            psub::toCanonical<double>(r.tiled, drawing, c, 3);
+        }
         perLevel.normals(a, normals);
         double scale = 1;
         for (double p : mesh.positions) scale = std::max(scale, std::abs(p));

@@ -94,6 +94,11 @@ enum class TableForm { PerLevel, Factorized, Tiled };
 // The per-frame evaluator: control points in, refined vertices out, on up to `threads`
 // threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the intermediate levels are allocated once, here; a frame
 // allocates nothing. Keeps references to the tables: they must outlive the evaluator.
+// The threads a CpuEvaluator's frame of `table`'s per-level rows runs on, of `threads` (0: all
+// cores): one per ~32k output values, so small meshes run on one. A caller ordering the table by
+// region (orderLevelsByRegion) makes this many regions.
+int perLevelFrameThreads(const PerLevelTable& table, std::uint32_t width = 3, int threads = 0);
+
 template <class T>
 class CpuEvaluator {
 public:
