@@ -326,8 +326,8 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             measure(r, evaluator, form);
         }
     // The per-level rows ordered by region, one region per thread (docs/design.md, "Threads and
-    // regions"; psub play's candidate when a frame runs on several threads): all threads only,
-    // the ordering counted in the table's build.
+    // regions"; psub play's candidates when a frame runs on several threads), and the tiled
+    // form's: all threads only, the ordering counted in the table's build.
     if (const int regionCount = perLevelFrameThreads(perLevel, 3, allThreads); regionCount > 1) {
         PerLevelTable regions = perLevel;
         const auto orderStart = Clock::now();
@@ -341,6 +341,24 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
         r.threads = allThreads;
         CpuEvaluator<float> evaluator(regions, factorized, refinement.surface, TableForm::PerLevel, 3, allThreads);
         measure(r, evaluator, TableForm::PerLevel);
+        // The tiled form with its rows up to level B so ordered (level B, which the tiles gather
+        // from, keeps its numbers), in place and put back after (the Vulkan runs below get the
+        // table as refined).
+        if (refinement.tiled.tileCount() > 0 && refinement.tiled.baseLevel > 1) {
+            PerLevelTable rows = refinement.tiled.rows;
+            const auto tiledStart = Clock::now();
+            orderLevelsByRegion(refinement.tiled.rows, std::uint32_t(regionCount), refinement.tiled.baseLevel);
+            const double tiledOrderMs = msSince(tiledStart);
+            Record t = psubRecord(model, levels, k, refinement, TableForm::Tiled, "psub-cpu", build);
+            t.evaluator = "psub-cpu-tiled-regions";
+            t.table = "tiled, rows by " + std::to_string(regionCount) + " regions";
+            t.tableMs += tiledOrderMs;
+            t.buildMs += tiledOrderMs;
+            t.threads = allThreads;
+            CpuEvaluator<float> tiledEvaluator(refinement.tiled, 3, allThreads);
+            measure(t, tiledEvaluator, TableForm::Tiled);
+            refinement.tiled.rows = std::move(rows);
+        }
     }
     tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN

@@ -119,6 +119,17 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "psub_tiled_frame: the region-ordered table gave other values\n");
             return 1;
         }
+        // The tiled form with its rows up to level B ordered by region (level B, which the tiles
+        // gather from, keeps its numbering).
+        psub::TiledTable tiledRegions = tiled;
+        psub::orderLevelsByRegion(tiledRegions.rows, 2, tiled.baseLevel);
+        Evaluator tiledTwo(tiled, 3, 2), tiledRegionTwo(tiledRegions, 3, 2);
+        tiledTwo.evaluate(control, out);
+        tiledRegionTwo.evaluate(control, out2);
+        if (out != out2) {
+            std::fprintf(stderr, "psub_tiled_frame: the region-ordered tiled table gave other values\n");
+            return 1;
+        }
         std::printf("region order: %.1f ms to make; frames equal to the table's\n", orderMs);
         const auto timed = [&](auto&& frame) {
             std::vector<double> times;
@@ -138,9 +149,12 @@ int main(int argc, char** argv) {
             const double shared = timed([&] { two.evaluate(control, out); });
             const double regionSingle = timed([&] { regionOne.evaluate(control, out); });
             const double regionShared = timed([&] { regionTwo.evaluate(control, out); });
+            const double tiledShared = timed([&] { tiledTwo.evaluate(control, out); });
+            const double tiledRegionShared = timed([&] { tiledRegionTwo.evaluate(control, out); });
             std::printf("per-level rows: one mesh on 1 thread %.3f ms; two copies side by side %.3f ms; "
-                        "one mesh on 2 threads %.3f ms; region-ordered, 1 thread %.3f ms, 2 threads %.3f ms\n",
-                        single, sideBySide, shared, regionSingle, regionShared);
+                        "one mesh on 2 threads %.3f ms; region-ordered, 1 thread %.3f ms, 2 threads %.3f ms; "
+                        "tiled, 2 threads %.3f ms, region-ordered up to level B %.3f ms\n",
+                        single, sideBySide, shared, regionSingle, regionShared, tiledShared, tiledRegionShared);
         }
         return 0;
     }

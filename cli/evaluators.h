@@ -45,33 +45,34 @@ inline std::string millis(double ms) {
     return text;
 }
 
-// Median milliseconds of 5 evaluations of `control` into `out` (3 x refined floats) with
-// normals, as psub play and psub view run every frame (the tiled form computes most normals in
-// its tile pass, the others in passes after the positions), after one to warm up.
+// The fastest of 9 evaluations of `control` into `out` (3 x refined floats) with normals, as
+// psub play and psub view run every frame (the tiled form computes most normals in its tile
+// pass, the others in passes after the positions), in milliseconds, after one to warm up. The
+// minimum, not the median: on a shared machine noise only adds (the median of 5 picked the
+// slower of two candidates 0.5 ms apart in one of three loads of Spot at 10 steps).
 inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& control, std::vector<float>& out) {
     std::vector<float> normals(out.size());
-    std::vector<double> ms;
+    double fastest = 1e300;
     evaluator.evaluate(control, out, normals);  // warm-up
-    for (int k = 0; k < 5; ++k) {
+    for (int k = 0; k < 9; ++k) {
         const auto start = std::chrono::steady_clock::now();
         evaluator.evaluate(control, out, normals);
-        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+        fastest = std::min(fastest, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     }
-    std::sort(ms.begin(), ms.end());
-    return ms[ms.size() / 2];
+    return fastest;
 }
 
 // The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
-// each candidate on `control`: the per-level rows; the tiled form when `r` (built with both forms) has tiles (on
-// meshes whose finest points come mostly from the fallback it is slower: docs/tiled.md); and,
-// on the CPU when a frame runs on several threads, the per-level rows ordered by region, one
-// region per thread (orderLevelsByRegion; docs/design.md, "Threads and regions": faster where
-// a thread reading another's fresh writes is dear, slower on one thread). One evaluator at a
-// time (a device's memory may hold one mesh's tables, not two): `tiled` is the tiled one when
-// it won, else empty (make the per-level one again); when the region order won, r.perLevel is
-// the region-ordered table (the same output, bit for bit). `reason`: "auto: ...", for
-// summaries. On lavapipe the tile kernel's first compile takes seconds (Mesa's shader cache
-// keeps it).
+// each candidate on `control`: the per-level rows; the tiled form when `r` (built with both
+// forms) has tiles (on meshes whose finest points come mostly from the fallback it is slower:
+// docs/tiled.md); and, on the CPU when a frame runs on several threads, both with their rows
+// ordered by region, one region per thread (orderLevelsByRegion, the tiled form's rows up to its
+// level B; docs/design.md, "Threads and regions": faster where a thread reading another's fresh
+// writes is dear, slower on one thread). One evaluator at a time (a device's memory may hold one
+// mesh's tables, not two): `tiled` is the tiled one when it won, else empty (make the per-level
+// one again). The rows of the winner stay region-ordered if that won (the same output, bit for
+// bit). `reason`: "auto: ...", for summaries. On lavapipe the tile kernel's first compile takes
+// seconds (Mesa's shader cache keeps it).
 struct FormChoice {
     TableForm form = TableForm::PerLevel;
     std::unique_ptr<Evaluator> tiled;
@@ -89,6 +90,7 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
         choice.reason = "auto: no regular tiles";
         return choice;
     }
+    const std::string byRegions = " by " + std::to_string(threads) + " regions";
     const double perLevelMs = quickFrameMs(*makeEvaluator(backend, tablesOf(r), TableForm::PerLevel, context), control, out);
     double bestMs = perLevelMs;
     std::string times = "rest pose with normals " + millis(perLevelMs) + " ms per-level";
@@ -97,15 +99,29 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
         const double tiledMs = quickFrameMs(*tiled, control, out);
         times += ", " + millis(tiledMs) + " ms tiled";
         if (tiledMs < bestMs) bestMs = tiledMs, choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
+        if (threads > 1 && r.tiled.baseLevel > 1) {  // rows to order before level B
+            std::unique_ptr<Evaluator> asRefined = std::move(choice.tiled);  // it reads r.tiled.rows
+            PerLevelTable rows = r.tiled.rows;
+            orderLevelsByRegion(r.tiled.rows, std::uint32_t(threads), r.tiled.baseLevel);
+            tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
+            const double regionMs = quickFrameMs(*tiled, control, out);
+            times += ", " + millis(regionMs) + " ms tiled" + byRegions;
+            if (regionMs < bestMs) {
+                bestMs = regionMs, choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
+            } else {
+                tiled.reset();
+                r.tiled.rows = std::move(rows);
+                choice.tiled = std::move(asRefined);
+            }
+        }
     }
     if (threads > 1) {
         PerLevelTable regions = r.perLevel;
         orderLevelsByRegion(regions, std::uint32_t(threads));
         const EvaluatorTables tables{regions, r.factorized, r.surface, r.tiled};
         const double regionMs = quickFrameMs(*makeEvaluator(backend, tables, TableForm::PerLevel, context), control, out);
-        times += ", " + millis(regionMs) + " ms per-level by " + std::to_string(threads) + " regions";
-        if (regionMs < bestMs)
-            choice.form = TableForm::PerLevel, choice.tiled.reset(), r.perLevel = std::move(regions);
+        times += ", " + millis(regionMs) + " ms per-level" + byRegions;
+        if (regionMs < bestMs) choice.form = TableForm::PerLevel, choice.tiled.reset(), r.perLevel = std::move(regions);
     }
     choice.reason = tiles ? "auto: " + std::to_string(int(std::lround(100.0 * r.tiled.fallbackBegin /
                                                                         std::max(1u, r.tiled.refinedCount)))) +

@@ -446,6 +446,11 @@ const char* formName(const Playback& p) {
     return p.form == TableForm::Tiled ? "tiled" : p.form == TableForm::Factorized ? "factorized" : "per-level";
 }
 
+// The regions the played form's rows are ordered by (1: as refined; docs/design.md).
+std::uint32_t regionCount(const Playback& p) {
+    return p.form == TableForm::Tiled ? p.refinement.tiled.rows.regions : p.refinement.perLevel.regions;
+}
+
 void report(const Playback& p, const Timings& t) {
     const PlayOptions& o = p.o;
     const SurfaceTable& surface = p.form == TableForm::Tiled ? p.refinement.tiled.surface : p.refinement.surface;
@@ -455,8 +460,7 @@ void report(const Playback& p, const Timings& t) {
         Json json = {{"input", o.input}, {"animation", p.animated.name}, {"levels", o.levels},
                      {"refined_faces", faces}, {"refined_vertices", refinedCount(p.refinement)},
                      {"frames", t.frames.size()}, {"fps", framesPerSecond(t)}, {"backend", backend},
-                     {"device", p.device}, {"form", formName(p)},
-                     {"regions", p.form == TableForm::Tiled ? 1u : p.refinement.perLevel.regions}, {"host_threads", p.hostThreads},
+                     {"device", p.device}, {"form", formName(p)}, {"regions", regionCount(p)}, {"host_threads", p.hostThreads},
                      {"render", p.rendering() ? Json{{"width", o.width}, {"height", o.height}} : Json(nullptr)},
                      {"stages", stagesJson(t)}, {"verified_frames", p.verifier ? p.verifier->frames : 0},
                      {"max_relative_error", p.verifier ? p.verifier->maxError : 0.0}};

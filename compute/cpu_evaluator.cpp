@@ -52,14 +52,14 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
 }
 
 // This thread's rows of level k, from `source` into `destination`: an even share of every row
-// group when the table is region-ordered (each thread one region of the mesh at every level,
+// group on the table's region-ordered levels (each thread one region of the mesh at each level,
 // reading mostly its own writes: docs/design.md, "Threads and regions"; a group's rows have one
 // shape, so equal counts are equal work), else shareByWork's one range.
 template <class T>
 void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
                         T* destination) {
     const StencilLevel& level = table.levels[k];
-    if (table.regions == 1 || omp_get_num_threads() == 1) {
+    if (table.regions == 1 || k >= table.regionLevels || omp_get_num_threads() == 1) {
         const auto [begin, end] = shareByWork(table, level);
         return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end);
     }

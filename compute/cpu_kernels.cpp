@@ -145,8 +145,9 @@ template <class T, int W>
 void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* source,
                BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
                std::uint64_t rowEnd) {
-    // A region-ordered table's finest level lists each group's rows by region, not by destination.
-    const bool ascending = table.regions == 1 || &level != &table.levels.back();
+    // A region-ordered table's last level ordered (its numbering kept) lists each group's rows
+    // by region, not by destination.
+    const bool ascending = table.regions == 1 || &level != &table.levels[table.regionLevels - 1];
     for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
         const RowGroup& g = table.groups[gi];
         const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level

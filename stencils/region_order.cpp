@@ -70,10 +70,11 @@ void checkSources(const PerLevelTable& table) {
 
 }  // namespace
 
-void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions) {
+void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_t levelCount) {
     if (regions == 0) throw std::invalid_argument("orderLevelsByRegion: regions must be at least 1");
     if (table.regions != 1) throw std::invalid_argument("orderLevelsByRegion: the table is region-ordered already");
-    if (regions == 1 || table.levels.empty()) return;
+    levelCount = std::min(levelCount, table.levels.size());
+    if (regions == 1 || levelCount == 0) return;
     checkSources(table);
     // region[v]: the region of the current level's point v (the control points: their breadth-
     // first rank cut into `regions` equal runs; a child point: its row's first source's);
@@ -83,9 +84,9 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions) {
     std::vector<std::uint32_t> position(table.controlCount), nextRegion, nextPosition, starts, groupIndices,
         groupDestinations, order;
     for (std::uint32_t v = 0; v < table.controlCount; ++v) position[v] = v;
-    for (std::size_t k = 0; k < table.levels.size(); ++k) {
+    for (std::size_t k = 0; k < levelCount; ++k) {
         const StencilLevel& level = table.levels[k];
-        const bool finest = k + 1 == table.levels.size();
+        const bool finest = k + 1 == levelCount;  // the last level ordered: its numbers kept
         nextRegion.assign(level.destinationCount, regions - 1);  // a point no row writes: the last
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
@@ -93,8 +94,8 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions) {
                 nextRegion[table.destinations[group.rowBegin + r]] =
                     region[table.indices[group.indexBegin + r * group.width]];
         }
-        // The child level's points by region, in their order within each; the finest level keeps
-        // its numbering (the output order).
+        // The child level's points by region, in their order within each; the last level ordered
+        // keeps its numbering (the output order, or what later rows and other tables refer to).
         nextPosition.resize(level.destinationCount);
         if (finest) {
             for (std::uint32_t d = 0; d < level.destinationCount; ++d) nextPosition[d] = d;
@@ -131,6 +132,7 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions) {
         position.swap(nextPosition);
     }
     table.regions = regions;
+    table.regionLevels = std::uint32_t(levelCount);
 }
 
 }  // namespace psub

@@ -1,8 +1,10 @@
 // The per-level table ordered by region (orderLevelsByRegion): still a table of the same rows,
-// the same bits from the CPU evaluator on any thread count, and the locality it is for.
+// the same bits from the CPU evaluator on any thread count, the tiled form's rows too, and the
+// locality it is for.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 #include "test_support.h"
+#include "tiled_options.h"
 
 #include <gtest/gtest.h>
 
@@ -133,6 +135,36 @@ TEST(RegionOrder, EachThreadReadsMostlyWhatItWrote) {
         EXPECT_GT(byRegion, 0.9);
         EXPECT_LT(asRefined, 0.75);
     }
+}
+
+// The tiled form's rows ordered by region up to its level B (which the tiles gather from, so it
+// keeps its numbering): the same bits, positions and normals, on 1 to 3 threads; both boundary
+// modes, tiles on every regular block (many tile borders beside the fallback).
+TEST(RegionOrder, TheTiledFormsRowsUpToLevelBGiveTheSameBits) {
+    for (const auto& [name, steps] : {std::pair{"spot_control_mesh.obj", 7}, std::pair{"cow.obj", 6}})
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
+            SCOPED_TRACE(name + std::string(boundary == Boundary::Smooth ? " smooth" : " paper"));
+            const test::Loaded loaded = test::load(test::dataPath(name));
+            const Refinement r = refine(loaded.mesh, loaded.checked.connectivity,
+                                        test::tiledOptions(steps, boundary, Rules::Paper, TileSides::Every));
+            ASSERT_GT(r.tiled.tileCount(), 0u);
+            ASSERT_GT(r.tiled.baseLevel, 1u);
+            TiledTable ordered = r.tiled;
+            orderLevelsByRegion(ordered.rows, 2, ordered.baseLevel);
+            EXPECT_EQ(ordered.rows.regionLevels, ordered.baseLevel);
+            std::vector<double> moved = loaded.mesh.positions;
+            for (std::size_t i = 0; i < moved.size(); ++i) moved[i] += 0.01 * std::cos(double(i));
+            const std::vector<float> control(moved.begin(), moved.end());
+            const auto frame = [&](const TiledTable& table, int threads) {
+                CpuEvaluator<float> evaluator(table, 3, threads);
+                std::vector<float> positions(3 * std::size_t(table.refinedCount)), normals(positions.size());
+                evaluator.evaluate(control, positions, normals);
+                positions.insert(positions.end(), normals.begin(), normals.end());
+                return positions;
+            };
+            const std::vector<float> expected = frame(r.tiled, 1);
+            for (int threads : {1, 2, 3}) EXPECT_EQ(frame(ordered, threads), expected) << threads << " threads";
+        }
 }
 
 TEST(RegionOrder, KeepsTheFinestLevelsNumbersAndRefusesWhatItCannotDo) {

@@ -29,15 +29,17 @@ SurfaceTable buildSurfaceTable(Faces finest);
 
 // Cuts the control mesh into `regions` regions of about equal point counts (runs of a breadth-
 // first order) and gives every refined point its row's first source's region; then, in place,
-// numbers the points of the intermediate levels (1 .. N - 1) region by region, orders each row
-// group's rows by region (in their order within each) and sets table.regions. The control points
-// and the finest level keep their numbers, so every evaluator gives the same bits as before.
+// orders the rows of the first `levelCount` levels (all by default) by region within each group
+// (in their order within each region), numbers the points of levels 1 .. levelCount - 1 region
+// by region, and sets table.regions and table.regionLevels. The control points and level
+// `levelCount` (the finest level for a whole table) keep their numbers, so every evaluator gives
+// the same bits as before; so do any later levels' rows.
 // What it is for: threads that each take an even share of every group (the CPU evaluator's
 // split of such a table) then work on one region at every level and read mostly points they
 // wrote themselves (docs/design.md, "Threads and regions"). `regions` = 1 leaves the table as it
 // is. std::invalid_argument when `regions` is 0, when the table is region-ordered already, or
 // when a row names a point its level does not have.
-void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions);
+void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_t levelCount = SIZE_MAX);
 
 // Which regular blocks of level B become tiles: Cheapest, those a cost model finds cheaper
 // than their points' rows, with sides fitted to the regular regions (docs/tiled.md); Every,

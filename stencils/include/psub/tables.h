@@ -47,13 +47,14 @@ struct StencilLevel {
 
 // Per-level, kind-coded table: all levels in one set of contiguous arrays. Each level's rows
 // are grouped by (kind, n, m) and, within a group, ordered by destination. With `regions` > 1
-// (orderLevelsByRegion, psub/stencils.h) the intermediate levels' points are numbered region by
-// region of the control mesh, and each group's rows ordered by region: the finest level's
-// numbering, and so every output value, stays the same; the CPU evaluator then gives each
-// thread an even share of every group (docs/design.md, "Threads and regions").
+// (orderLevelsByRegion, psub/stencils.h) the rows of levels [0, regionLevels) are ordered by
+// region of the control mesh within each group, and the points of levels 1 .. regionLevels - 1
+// numbered region by region; level regionLevels (the finest level for a whole table) keeps its
+// numbering, and so every output value stays the same. The CPU evaluator then gives each thread
+// an even share of every group of those levels (docs/design.md, "Threads and regions").
 struct PerLevelTable {
     std::uint32_t controlCount = 0;
-    std::uint32_t regions = 1;
+    std::uint32_t regions = 1, regionLevels = 0;
     std::vector<StencilLevel> levels;
     std::vector<RowGroup> groups;
     std::vector<std::uint32_t> destinations;  // per row: the child vertex it writes
