@@ -328,17 +328,22 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     // The per-level rows ordered by region, one region per thread (docs/design.md, "Threads and
     // regions"; psub play's candidates when a frame runs on several threads), and the tiled
     // form's: all threads only, the ordering counted in the table's build.
-    if (const int regionCount = perLevelFrameThreads(perLevel, 3, allThreads); regionCount > 1) {
-        PerLevelTable regions = perLevel;
-        const auto orderStart = Clock::now();
-        orderLevelsByRegion(regions, std::uint32_t(regionCount));
-        const double orderMs = msSince(orderStart);
-        Record r = psubRecord(model, levels, k, refinement, TableForm::PerLevel, "psub-cpu", build);
-        r.evaluator = "psub-cpu-regions";
-        r.table = "per-level by " + std::to_string(regionCount) + " regions";
+    const auto regionRecord = [&](TableForm form, const std::string& evaluator, const std::string& table,
+                                  double orderMs) {
+        Record r = psubRecord(model, levels, k, refinement, form, "psub-cpu", build);
+        r.evaluator = evaluator;
+        r.table = table;
         r.tableMs += orderMs;
         r.buildMs += orderMs;
         r.threads = allThreads;
+        return r;
+    };
+    if (const int regionCount = perLevelFrameThreads(perLevel, 3, allThreads); regionCount > 1) {
+        const std::string byRegions = " by " + std::to_string(regionCount) + " regions";
+        PerLevelTable regions = perLevel;
+        auto orderStart = Clock::now();
+        orderLevelsByRegion(regions, std::uint32_t(regionCount));
+        Record r = regionRecord(TableForm::PerLevel, "psub-cpu-regions", "per-level" + byRegions, msSince(orderStart));
         CpuEvaluator<float> evaluator(regions, factorized, refinement.surface, TableForm::PerLevel, 3, allThreads);
         measure(r, evaluator, TableForm::PerLevel);
         // The tiled form with its rows up to level B so ordered (level B, which the tiles gather
@@ -346,15 +351,10 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
         // table as refined).
         if (refinement.tiled.tileCount() > 0 && refinement.tiled.baseLevel > 1) {
             PerLevelTable rows = refinement.tiled.rows;
-            const auto tiledStart = Clock::now();
+            orderStart = Clock::now();
             orderLevelsByRegion(refinement.tiled.rows, std::uint32_t(regionCount), refinement.tiled.baseLevel);
-            const double tiledOrderMs = msSince(tiledStart);
-            Record t = psubRecord(model, levels, k, refinement, TableForm::Tiled, "psub-cpu", build);
-            t.evaluator = "psub-cpu-tiled-regions";
-            t.table = "tiled, rows by " + std::to_string(regionCount) + " regions";
-            t.tableMs += tiledOrderMs;
-            t.buildMs += tiledOrderMs;
-            t.threads = allThreads;
+            Record t = regionRecord(TableForm::Tiled, "psub-cpu-tiled-regions", "tiled, rows" + byRegions,
+                                    msSince(orderStart));
             CpuEvaluator<float> tiledEvaluator(refinement.tiled, 3, allThreads);
             measure(t, tiledEvaluator, TableForm::Tiled);
             refinement.tiled.rows = std::move(rows);
