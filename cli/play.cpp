@@ -471,7 +471,8 @@ void report(const Playback& p, const Timings& t) {
     std::printf("%s: %s, %d P-S step%s: %u control points -> %llu faces, %u vertices; %s on %s\n", o.input.c_str(),
                 p.animated.name.c_str(), o.levels, o.levels == 1 ? "" : "s", p.animated.mesh.faces.vertexCount,
                 (unsigned long long)faces, refinedCount(p.refinement), backend, p.device.c_str());
-    std::printf("Table form: %s (%s)\n", formName(p), p.formReason.c_str());
+    const std::string regions = regionCount(p) > 1 ? " by " + std::to_string(regionCount(p)) + " regions" : "";
+    std::printf("Table form: %s%s (%s)\n", formName(p), regions.c_str(), p.formReason.c_str());
     if (o.backend == Backend::Vulkan)
         std::printf("CPU-side stages on %d thread%s%s\n", p.hostThreads, p.hostThreads == 1 ? "" : "s",
                     p.hostThreads == 1 ? " (the device runs on the CPU's cores)" : "");
