@@ -16,7 +16,7 @@ import sys
 FIELDS = {"device": str, "torus": int, "levels": int, "faces": (int, float), "vertices": (int, float),
           "double_steps": int, "tiles": int, "tiled_share": float, "tile_kernel": str, "frames": int,
           "timestamps": bool, "gpu_ms_median": (int, float), "positions_ms_median": (int, float),
-          "normals_ms_median": (int, float), "wall_ms_median": (int, float), "reached_gbs": (int, float)}
+          "normals_ms_median": (int, float), "upload_ms_median": (int, float), "wall_ms_median": (int, float), "reached_gbs": (int, float)}
 
 
 def fail(message):
@@ -40,8 +40,8 @@ def main():
         fail("run quick: " + run.stdout + run.stderr)
     with open(os.path.join(workdir, "out", "gpu.jsonl")) as f:
         records = [json.loads(line) for line in f if line.strip()]
-    if [r.get("tile_kernel") for r in records] != ["auto", "workgroup"]:
-        fail("expected the auto kernel's record, then the workgroup kernel's: %s" % records)
+    if [r.get("tile_kernel") for r in records] != ["auto", "workgroup16", "workgroup32"]:
+        fail("expected the auto kernel's record, then the workgroup kernel's with each block side: %s" % records)
     for r in records:
         for name, kind in FIELDS.items():
             if not isinstance(r.get(name), kind):
@@ -51,8 +51,8 @@ def main():
         if r.get("agrees") is not True:
             fail("the device's frame differs from the CPU's tiled evaluator: %s" % r)
     with open(os.path.join(workdir, "out", "gpu.md")) as f:
-        if f.read().count("GPU ") < 2:
-            fail("gpu.md lacks the two frame lines")
+        if f.read().count("GPU ") < 3:
+            fail("gpu.md lacks the three frame lines")
     print("OK")
 
 

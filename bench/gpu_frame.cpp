@@ -8,7 +8,10 @@
 // BANDWIDTH_GBS (the device's copy bandwidth measured in the same run) also its fraction. One
 // frame is then read back and compared with the CPU's tiled evaluator (exit 1 beyond the
 // contract's tolerances): the GPU run checks the results on the GPU too.
-//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|unrolled] [BANDWIDTH_GBS]
+//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|workgroup16|workgroup32|unrolled]
+//                  [BANDWIDTH_GBS]
+// (workgroup16 and workgroup32: the workgroup kernel with blocks of at most that side; plain
+// workgroup and auto let the device's shared memory choose.)
 // Prints one line of text and one JSON object (the last line).
 #include "bench.h"
 #include "detail.h"
@@ -40,10 +43,13 @@ int main(int argc, char** argv) {
     const std::string kernelName = argc > 4 ? argv[4] : "auto";
     const double bandwidth = argc > 5 ? parseArgument(argv[5], "BANDWIDTH_GBS", 0, 1e6, false) : 0;
     psub::VulkanEvaluatorOptions options;
-    if (kernelName == "workgroup") options.tileKernel = psub::TileKernel::Workgroup;
+    if (kernelName.rfind("workgroup", 0) == 0) options.tileKernel = psub::TileKernel::Workgroup;
+    if (kernelName == "workgroup16") options.tileBlock = 16;
+    else if (kernelName == "workgroup32") options.tileBlock = 32;
     else if (kernelName == "unrolled") options.tileKernel = psub::TileKernel::Unrolled;
-    else if (kernelName != "auto") {
-        std::fprintf(stderr, "psub_gpu_frame: the tile kernel is auto, workgroup or unrolled, not %s\n", kernelName.c_str());
+    else if (kernelName != "auto" && kernelName != "workgroup") {
+        std::fprintf(stderr, "psub_gpu_frame: the tile kernel is auto, workgroup, workgroup16, workgroup32 or unrolled, not %s\n",
+                     kernelName.c_str());
         return 2;
     }
     using Clock = std::chrono::steady_clock;
@@ -60,7 +66,7 @@ int main(int argc, char** argv) {
         psub::VulkanContext context;
         psub::VulkanEvaluator evaluator(context, tiled, 3, options);
         std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
-        std::vector<double> gpu, positions, normals, wall;
+        std::vector<double> gpu, positions, normals, uploads, wall;
         for (int frame = -3; frame < frames; ++frame) {  // three untimed frames first
             for (std::size_t i = 2; i < control.size(); i += 3) control[i] += 1e-4f;
             const auto start = Clock::now();
@@ -69,7 +75,9 @@ int main(int argc, char** argv) {
             const psub::GpuFrameTimes times = evaluator.lastFrameTimes();
             if (frame < 0) continue;
             wall.push_back(ms);
-            if (times.valid) gpu.push_back(times.totalMs), positions.push_back(times.levelsMs), normals.push_back(times.normalsMs);
+            if (times.valid)
+                gpu.push_back(times.totalMs), positions.push_back(times.levelsMs), normals.push_back(times.normalsMs),
+                    uploads.push_back(times.uploadMs);
         }
         // One more frame read back and checked against the CPU's tiled evaluator: positions within
         // 1e-6 of the bounding-box diagonal (the control points'), normals within 1e-5 (the
@@ -87,24 +95,26 @@ int main(int argc, char** argv) {
         const double bytes = vertices * 4.0 * sizeof(float) * 2;  // positions and normals, 4 floats each
         const double gpuMs = median(gpu), reached = gpuMs > 0 ? bytes / (gpuMs * 1e6) : 0;
         std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; "
-                    "frame (evaluate + normals, kept on the device) GPU %.3f ms (positions %.3f, normals %.3f), "
+                    "%s kernel; frame (evaluate + normals, kept on the device) GPU %.3f ms (positions %.3f of which the upload "
+                    "%.3f, normals %.3f), "
                     "wall %.3f ms; it writes %.1f MB a frame: %.1f GB/s",
                     context.deviceName().c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
-                    100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds, gpuMs, median(positions),
-                    median(normals), median(wall), bytes / 1e6, reached);
+                    100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds, kernelName.c_str(), gpuMs,
+                    median(positions), median(uploads), median(normals), median(wall), bytes / 1e6, reached);
         if (bandwidth > 0) std::printf(" (%.1f%% of %.0f GB/s)", 100 * reached / bandwidth, bandwidth);
         std::printf("; against the CPU's tiled evaluator: positions %.2g of the diagonal, normals %.2g%s", positionDiff,
                     normalDiff, agrees ? "" : " (FAILED: above 1e-6 and 1e-5)");
         std::printf("\n{\"device\": \"%s\", \"torus\": %d, \"levels\": %d, \"faces\": %.0f, \"vertices\": %.0f, "
                     "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", "
                     "\"build_s\": %.3f, \"frames\": %d, \"timestamps\": %s, \"gpu_ms_median\": %.4f, "
-                    "\"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, \"normals_ms_median\": %.4f, "
+                    "\"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, \"upload_ms_median\": %.4f, \"normals_ms_median\": %.4f, "
                     "\"wall_ms_median\": %.4f, \"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f, "
                     "\"position_difference\": %.3g, \"normal_difference\": %.3g, \"agrees\": %s}\n",
                     context.deviceName().c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
                     double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(), buildSeconds,
                     frames, gpu.empty() ? "false" : "true", gpuMs, gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end()),
-                    median(positions), median(normals), median(wall), bytes, reached, bandwidth, positionDiff, normalDiff,
+                    median(positions), median(uploads), median(normals), median(wall), bytes, reached, bandwidth, positionDiff,
+                    normalDiff,
                     agrees ? "true" : "false");
         if (!agrees) return 1;
     } catch (const std::exception& e) {

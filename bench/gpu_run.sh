@@ -8,8 +8,10 @@
 #       on the GPU's machine, from the repository's root, with .gpu/ carried there: the device's
 #       copy bandwidth (a device-to-device copy through PyTorch, where python3 has it), then
 #       psub_gpu_frame on the torus at 1M, 4.2M and 16.8M faces (the tile kernel the device
-#       gets, then the other one at 16.8M). `quick`: one small torus, for trying the script on
-#       lavapipe. Results: $OUT/gpu.md and $OUT/gpu.jsonl (./gpu-out/ when OUT is unset).
+#       gets, then the workgroup kernel with blocks of 16 at 16.8M), with nvidia-smi's clocks
+#       sampled meanwhile. `quick`: one small torus, for trying the script on lavapipe (its
+#       kernel, then the workgroup kernel with each block side). Results: $OUT/gpu.md,
+#       $OUT/gpu.jsonl and $OUT/clocks.csv (./gpu-out/ when OUT is unset).
 # bench/README.md ("A run for a GPU") has the commands and what was measured.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -64,8 +66,15 @@ EOF
     fi
     printf '\n```\n' >> "$out/gpu.md"
     : > "$out/gpu.jsonl"
-    local sizes=("512 2" "512 4" "512 6") other=unrolled status=0
-    [[ ${1:-} == quick ]] && sizes=("64 2") && other=workgroup
+    local sizes=("512 2" "512 4" "512 6") others=(workgroup16) status=0 sampler=
+    [[ ${1:-} == quick ]] && sizes=("64 2") && others=(workgroup16 workgroup32)
+    # The GPU's clocks every 250 ms while the frames run (a GPU left idle between frames may
+    # not reach its highest clock).
+    if command -v nvidia-smi > /dev/null; then
+        nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,utilization.gpu,power.draw --format=csv -lms 250 \
+            > "$out/clocks.csv" 2> /dev/null &
+        sampler=$!
+    fi
     # One measurement: its text line to gpu.md, its JSON line to gpu.jsonl; a failure (an error,
     # or a frame that disagrees with the CPU) is written down and the next sizes still run.
     frame() {
@@ -81,10 +90,19 @@ EOF
         # shellcheck disable=SC2086
         frame $size 50 auto
     done
-    # shellcheck disable=SC2086
-    frame ${sizes[-1]} 20 "$other"
+    for other in "${others[@]}"; do
+        # shellcheck disable=SC2086
+        frame ${sizes[-1]} 20 "$other"
+    done
     rm -f "$out/frame.txt" "$out/error.txt"
     printf '```\n' >> "$out/gpu.md"
+    if [[ -n $sampler ]]; then
+        kill "$sampler" 2> /dev/null || true
+        wait "$sampler" 2> /dev/null || true
+        awk -F', ' 'NR > 1 { split($2, c, " "); if (c[1] + 0 > top) top = c[1] + 0 }
+            END { printf "\nHighest SM clock sampled during the frames: %d MHz (every sample: clocks.csv)\n", top }' \
+            "$out/clocks.csv" >> "$out/gpu.md"
+    fi
     echo "gpu_run.sh: results in $out/gpu.md and $out/gpu.jsonl"
     return "$status"
 }

@@ -48,6 +48,7 @@
 #define PSUB_SPEC_TILE_STEPS 8         // tile_unrolled.comp: t, the double steps it unrolls
 #define PSUB_SPEC_LISTED 9             // face and vertex normals: rows are the faces or vertices
                                        // listed in TABLE_A (fixed layouts only), not a range
+#define PSUB_SPEC_TILE_GRID 10         // tile.comp: the side of its shared grids (see below)
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once
@@ -93,7 +94,9 @@
 // The tile kernels: tile.comp, one workgroup computes a block of at most PSUB_TILE_BLOCK x
 // PSUB_TILE_BLOCK lattice intervals of one tile, in workgroup-shared grids of at most
 // PSUB_TILE_GRID x PSUB_TILE_GRID points (the largest grid any of its steps keeps, t <= 3:
-// 12.3 KiB of vec4 with the quincunx level's two grids, under the 16 KiB every device has);
+// 12.3 KiB of vec4 with the quincunx level's two grids, under the 16 KiB every device has), or
+// of PSUB_TILE_WIDE_BLOCK and grids of up to PSUB_TILE_WIDE_GRID (27.7 KiB) where the device's
+// shared memory holds them (the grid side a specialization constant, PSUB_SPEC_TILE_GRID);
 // tile_unrolled.comp, one invocation computes a block of exactly PSUB_TILE_BLOCK, its grids
 // unrolled into registers (the last block of a row or column cut by the tile's side).
 // A block record (std430, 32 bytes, read as two uvec4):
@@ -101,13 +104,15 @@
 //                 gathered grid, row (Y0 >> t), column (X0 >> t))
 //   gridSide      g, the tile's gathered grid side (the window's row stride)
 //   lattice       L, the tile's lattice side
-//   blockSide     M: the largest multiple of 2^t dividing L, at most PSUB_TILE_BLOCK (unrolled:
-//                 PSUB_TILE_BLOCK)
+//   blockSide     M: the largest multiple of 2^t dividing L, at most the kernel's block side
+//                 (unrolled: PSUB_TILE_BLOCK)
 //   origin        X0 | Y0 << 16: the block's first lattice point in the tile
 //   outputBegin, outputEnd   the tile's drawing positions (inner points from outputBegin)
 //   borderFirst   the tile's first border entry in the TABLE_C window
 #define PSUB_TILE_BLOCK 16
 #define PSUB_TILE_GRID 17
+#define PSUB_TILE_WIDE_BLOCK 32
+#define PSUB_TILE_WIDE_GRID 25
 #define PSUB_TILE_RECORD_MEMBERS                                                                \
     uint gatherFirst;                                                                          \
     uint gridSide;                                                                             \

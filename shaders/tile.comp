@@ -8,7 +8,9 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
-const uint kGrid = PSUB_TILE_GRID;
+// The shared grids' side: the largest grid any step keeps, for the block side the host chose
+// from the device's shared memory (PSUB_TILE_GRID for blocks of 16, more for blocks of 32).
+layout(constant_id = PSUB_SPEC_TILE_GRID) const uint kGrid = PSUB_TILE_GRID;
 shared vec4 grid[kGrid * kGrid];              // the current level's grid, row by row
 shared vec4 qv[(kGrid - 2u) * (kGrid - 2u)];  // its inner vertices' V-points
 shared vec4 qf[(kGrid - 1u) * (kGrid - 1u)];  // its cells' F-points
@@ -17,7 +19,7 @@ shared vec4 qf[(kGrid - 1u) * (kGrid - 1u)];  // its cells' F-points
 
 // (i % n, i / n) without an integer division: lavapipe runs each one per lane (x86 has no
 // vector integer division), which made divisions most of the kernel's time there. Exact for
-// i < 2^16 and n <= PSUB_TILE_GRID: (i + 0.5) / n is at least 0.5 / n away from an integer.
+// i < 2^16 and n <= kGrid: (i + 0.5) / n is at least 0.5 / n away from an integer.
 uvec2 cell(uint i, uint n) {
     const uint y = uint((float(i) + 0.5) / float(n));
     return uvec2(i - y * n, y);
@@ -39,27 +41,31 @@ void quincunx(uint n) {
     }
 }
 
-// The second half: the points (p0 + x, p0 + y), x and y in [0, side) of parities px and py, of
-// the fine grid (spacing 1/2, its (0, 0) at the coarse grid's (2, 2)) from the quincunx level
-// of the n x n grid (compute/tiled_kernels.cpp, fineBody); p0 even. Into the grid (side x side)
-// or, when `last`, to the finest level. One parity class per call (finePoint's constants).
-void fineKind(const uint px, const uint py, uint n, uint p0, uint side, const bool last) {
-    const uint nv = n - 2u, nf = n - 1u, columns = (side + 1u - px) / 2u, rows = (side + 1u - py) / 2u;
-    for (uint k = gl_LocalInvocationIndex; k < columns * rows; k += PSUB_WORKGROUP_SIZE) {
-        const uvec2 ab = cell(k, columns);
-        const uint x = 2u * ab.x + px, y = 2u * ab.y + py, i = (p0 + x) / 2u + 2u, j = (p0 + y) / 2u + 2u;
-        // V(a, b) = qv[(b - 1) nv + a - 1], F(a, b) = qf[b nf + a].
-        const vec4 value = finePoint(px, py, (j - 1u) * nv + i - 1u, j * nf + i, nv, nf);
-        if (last) emit(x, y, value);
-        else grid[y * side + x] = value;
-    }
+// The second half: the fine grid of the given side (spacing 1/2, its (0, 0) at the coarse grid's
+// (2, 2) + p0 / 2, p0 even) from the quincunx level of the n x n grid (compute/tiled_kernels.cpp,
+// fineBody), into the grid (side x side) or, when `last`, to the finest level. One invocation
+// per 2 x 2 cell of fine points: the four share their V(i, j) and F(i, j), and one loop keeps
+// every invocation busy where four loops, one per parity, left half of them idle on the small
+// grids. The sides are odd, so the last row and column of cells hold their even points alone.
+void put(uint x, uint y, uint side, const bool last, vec4 value) {
+    if (last) emit(x, y, value);
+    else grid[y * side + x] = value;
 }
 
 void fineStep(uint n, uint p0, uint side, const bool last) {
-    fineKind(0u, 0u, n, p0, side, last);
-    fineKind(1u, 0u, n, p0, side, last);
-    fineKind(0u, 1u, n, p0, side, last);
-    fineKind(1u, 1u, n, p0, side, last);
+    const uint nv = n - 2u, nf = n - 1u, cells = (side + 1u) / 2u;
+    for (uint k = gl_LocalInvocationIndex; k < cells * cells; k += PSUB_WORKGROUP_SIZE) {
+        const uvec2 ab = cell(k, cells);
+        const uint x = 2u * ab.x, y = 2u * ab.y, i = (p0 + x) / 2u + 2u, j = (p0 + y) / 2u + 2u;
+        // V(a, b) = qv[(b - 1) nv + a - 1], F(a, b) = qf[b nf + a].
+        const uint v = (j - 1u) * nv + i - 1u, f = j * nf + i;
+        put(x, y, side, last, finePoint(0u, 0u, v, f, nv, nf));
+        if (x + 1u < side) put(x + 1u, y, side, last, finePoint(1u, 0u, v, f, nv, nf));
+        if (y + 1u < side) {
+            put(x, y + 1u, side, last, finePoint(0u, 1u, v, f, nv, nf));
+            if (x + 1u < side) put(x + 1u, y + 1u, side, last, finePoint(1u, 1u, v, f, nv, nf));
+        }
+    }
 }
 
 void main() {

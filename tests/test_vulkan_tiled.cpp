@@ -24,16 +24,25 @@ namespace {
 
 using VulkanTiled = test::ValidatedVulkanTest;
 
-// Both tile kernels, whichever the device would pick (lavapipe: the unrolled one).
-constexpr TileKernel kTileKernels[] = {TileKernel::Workgroup, TileKernel::Unrolled};
+// Both tile kernels, whichever the device would pick (lavapipe: the unrolled one), the
+// workgroup kernel with blocks of at most 16 and of at most 32 a side (a GPU's choice where
+// its shared memory holds the wider blocks' grids; lavapipe's does).
+struct KernelChoice {
+    TileKernel kernel;
+    std::uint32_t block;
+};
+constexpr KernelChoice kTileKernels[] = {
+    {TileKernel::Workgroup, 16}, {TileKernel::Workgroup, 32}, {TileKernel::Unrolled, 0}};
 
-VulkanEvaluatorOptions withKernel(TileKernel kernel, VulkanEvaluatorOptions options = {}) {
-    options.tileKernel = kernel;
+VulkanEvaluatorOptions withKernel(KernelChoice choice, VulkanEvaluatorOptions options = {}) {
+    options.tileKernel = choice.kernel;
+    options.tileBlock = choice.block;
     return options;
 }
 
-std::string kernelName(TileKernel kernel) {
-    return kernel == TileKernel::Workgroup ? "workgroup kernel" : "unrolled kernel";
+std::string kernelName(KernelChoice choice) {
+    return choice.kernel == TileKernel::Workgroup ? "workgroup kernel, blocks of " + std::to_string(choice.block)
+                                                  : std::string("unrolled kernel");
 }
 
 struct Tiled {
@@ -129,9 +138,12 @@ TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
         ASSERT_GT(t.r.tiled.tileCount(), 0u);
         ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
         doubleSteps = std::max(doubleSteps, t.r.tiled.doubleSteps);
-        for (TileKernel kernel : kTileKernels)
+        for (KernelChoice kernel : kTileKernels)
             for (std::size_t w = 0; w < kWidths.size(); ++w) {
                 if (test::kSanitized && w != std::size_t(steps) % 4 && w != std::size_t(steps + 2) % 4) continue;
+                // Under the sanitizers, blocks of 16 at the largest t alone (the others' are covered by
+                // the plain build).
+                if (test::kSanitized && kernel.kernel == TileKernel::Workgroup && kernel.block == 16 && steps < 6) continue;
                 const std::uint32_t width = kWidths[w];
                 SCOPED_TRACE(kernelName(kernel) + std::string(" width ") + std::to_string(width));
                 compareWithCpu(context(), t, width, width == 3 || width == 4 || steps % 2 == 0 ? 0.0 : 1e-6,
@@ -150,7 +162,7 @@ TEST_F(VulkanTiled, NormalsOfTheTilesInnerPointsAreTheCpuTilePassBits) {
         const Tiled t = tiledFor(test::loadTorus(n, m), steps);
         ASSERT_GT(t.r.tiled.tileCount(), 0u);
         EXPECT_EQ(t.r.tiled.fallbackBegin == t.r.tiled.refinedCount, steps % 2 == 0);
-        for (TileKernel kernel : kTileKernels) {
+        for (KernelChoice kernel : kTileKernels) {
             SCOPED_TRACE(kernelName(kernel));
             EXPECT_TRUE(VulkanEvaluator(context(), t.r.tiled, 3, withKernel(kernel)).normalsInTilePass());
             compareWithCpu(context(), t, 3, 0.0, withKernel(kernel));
@@ -164,7 +176,7 @@ TEST_F(VulkanTiled, NormalsOfTheTilesInnerPointsAreTheCpuTilePassBits) {
 TEST_F(VulkanTiled, TilesOfAnySideAreTheCpusBits) {
     const Tiled t = tiledFor(test::loadTorus(30, 30), 4);
     ASSERT_EQ(std::set<std::uint32_t>(t.r.tiled.side.begin(), t.r.tiled.side.end()), (std::set<std::uint32_t>{15}));
-    for (TileKernel kernel : kTileKernels)
+    for (KernelChoice kernel : kTileKernels)
         for (std::uint32_t width : {3u, 4u}) {
             SCOPED_TRACE(kernelName(kernel));
             compareWithCpu(context(), t, width, 0.0, withKernel(kernel));
@@ -186,7 +198,7 @@ TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) 
             SCOPED_TRACE(width);
             const std::uint64_t stride = width == 3 ? 4 : width;
             const VulkanEvaluatorOptions small{staging, std::uint64_t(t.r.tiled.refinedCount) * stride * 4 / 3 + 1024};
-            for (TileKernel kernel : kTileKernels) {
+            for (KernelChoice kernel : kTileKernels) {
                 SCOPED_TRACE(kernelName(kernel));
                 compareWithCpu(context(), t, width, 0.0, withKernel(kernel, small));
             }
@@ -206,7 +218,7 @@ TEST_F(VulkanTiled, StorageBufferReadsGiveTheSameResults) {
     const std::string saved = before ? before : "";
     ::setenv("PSUB_VULKAN_TEXELS", "0", 1);
     const Tiled t = tiledFor(test::loadTorus(40, 24), 5);
-    for (TileKernel kernel : kTileKernels) {
+    for (KernelChoice kernel : kTileKernels) {
         SCOPED_TRACE(kernelName(kernel));
         compareWithCpu(context(), t, 3, 0.0, withKernel(kernel));
         compareWithCpu(context(), t, 5, 1e-6, withKernel(kernel));
@@ -222,6 +234,7 @@ TEST_F(VulkanTiled, TheOtherConstructorRefusesTheTiledForm) {
     EXPECT_THROW(VulkanEvaluator(context(), t.r.perLevel, t.r.factorized, t.r.surface, TableForm::Tiled),
                  std::invalid_argument);
     EXPECT_THROW(VulkanEvaluator(context(), t.r.tiled, 0), std::invalid_argument);
+    EXPECT_THROW(VulkanEvaluator(context(), t.r.tiled, 3, withKernel({TileKernel::Workgroup, 8})), std::invalid_argument);
 }
 
 }  // namespace

@@ -40,10 +40,11 @@ struct Specialization {
     uint rowN = ~0u, rowM = ~0u;  // level kernel: the rows' shape when compiled in (~0u: any)
     uint tileSteps = 1;           // unrolled tile kernel: t
     bool listed = false;          // face and vertex normals: over listed faces or vertices
+    uint tileGrid = PSUB_TILE_GRID;  // workgroup tile kernel: its shared grids' side
 
     auto key() const {
         return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN,
-                          rowM, tileSteps, listed);
+                          rowM, tileSteps, listed, tileGrid);
     }
 };
 
@@ -68,7 +69,7 @@ private:
     VkPipelineCache cache_ = VK_NULL_HANDLE;
     VkShaderModule modules_[kKernelCount] = {};
     std::mutex lock_;
-    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint, bool>, VkPipeline> pipelines_;
+    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint, bool, uint>, VkPipeline> pipelines_;
 };
 
 // The context's compute pipelines, made on first use (thread-safe) and kept with the context.

@@ -144,7 +144,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
                      width <= 4 && (options.tileKernel == TileKernel::Unrolled ||
                                     (options.tileKernel == TileKernel::Auto &&
                                      c.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU)),
-                     uploader);
+                     options.tileBlock, uploader);
     if (e.hasSurface) {
         e.buildNormals(surface, tiled, uploader);
         if (e.staging)

@@ -84,6 +84,7 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
     }
+    if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_TRANSFER_BIT, queries, kQueryUploaded);
     if (kind & kStencils) runStages(command, stencilStages);
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryStencils);
     if (kind & kNormals) {
@@ -125,7 +126,8 @@ void VulkanEvaluator::Impl::submit(unsigned kind) {
             context.timestampValidBits >= 64 ? ~0ull : (1ull << context.timestampValidBits) - 1;
         const double msPerTick = double(context.properties.limits.timestampPeriod) * 1e-6;
         auto span = [&](int a, int b) { return double((stamps[b] - stamps[a]) & mask) * msPerTick; };
-        times = {true, span(kQueryStart, kQueryEnd), span(kQueryStart, kQueryStencils), span(kQueryStencils, kQueryNormals)};
+        times = {true, span(kQueryStart, kQueryEnd), span(kQueryStart, kQueryStencils), span(kQueryStencils, kQueryNormals),
+                 span(kQueryStart, kQueryUploaded)};
     }
 }
 

@@ -34,7 +34,7 @@ enum : unsigned {
     kUploadRefined = 16, // refined positions uploaded (normals of given positions)
     kFrameKinds = 32,
 };
-enum : std::uint32_t { kQueryStart, kQueryStencils, kQueryNormals, kQueryEnd, kQueryCount };
+enum : std::uint32_t { kQueryStart, kQueryUploaded, kQueryStencils, kQueryNormals, kQueryEnd, kQueryCount };
 
 inline std::string mib(std::uint64_t bytes) {
     return bytes < (1u << 20) ? std::to_string((bytes + 1023) >> 10) + " KiB"
@@ -160,7 +160,7 @@ struct VulkanEvaluator::Impl {
                          const VertexBuffer& to) const;
     void buildPerLevel(const PerLevelTable& table, Uploader& uploader);
     void buildFactorized(const FactorizedTable& table, Uploader& uploader);
-    void buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader);  // after buildPerLevel(table.rows)
+    void buildTiles(const TiledTable& table, bool unrolled, std::uint32_t blockLimit, Uploader& uploader);  // after buildPerLevel(table.rows)
     void buildNormals(const SurfaceTable& surface, const TiledTable* tiled, Uploader& uploader);  // tiled: its split
     Stage heavyVertexStage(const SurfaceTable& surface, const std::vector<std::uint32_t>& heavy, Uploader& uploader);
     bool buildTileNormals(const TiledTable& tiled, const Buffer& corners, const Buffer& vertexWords, Uploader& uploader);

@@ -196,28 +196,49 @@ void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Upload
     stencilStages.push_back(std::move(stage));
 }
 
-void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, Uploader& uploader) {
-    // One workgroup (unrolled: one invocation) per block of at most PSUB_TILE_BLOCK lattice
-    // intervals a side; a tile's blocks in order. Dispatches cover whole tiles whose gathered
-    // grids, border entries and block records each fit one binding.
+void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, std::uint32_t blockLimit,
+                                       Uploader& uploader) {
+    // One workgroup (unrolled: one invocation) per block of at most `side` lattice intervals a
+    // side; a tile's blocks in order. Dispatches cover whole tiles whose gathered grids, border
+    // entries and block records each fit one binding.
+    if (blockLimit != 0 && blockLimit != PSUB_TILE_BLOCK && blockLimit != PSUB_TILE_WIDE_BLOCK)
+        throw std::invalid_argument("VulkanEvaluator: the tile block side is 16 or 32, not " + std::to_string(blockLimit));
     if (table.tileCount() == 0) return;
     const std::uint32_t t = table.doubleSteps, halo = table.halo;
-    std::uint32_t n = (PSUB_TILE_BLOCK >> t) + 2 * halo + 1, largest = n;
-    for (std::uint32_t s = 0; s + 1 < t; ++s) largest = std::max(largest, n = 2 * n - 9);
-    // The unrolled kernel compiles in the halo of t, t + 1 (docs/tiled.md).
-    if (t == 0 || t > 3 || largest > PSUB_TILE_GRID || (unrolled && halo != t + 1))
-        throw std::invalid_argument("VulkanEvaluator: the tiled table's " + std::to_string(t) + " double steps and halo " +
-                                    std::to_string(halo) + " need grids beyond the tile kernel's");
+    // The largest grid a block of side M keeps (its window, then each double step's but the last's).
+    const auto gridFor = [&](std::uint32_t M) {
+        std::uint32_t n = (M >> t) + 2 * halo + 1, largest = n;
+        for (std::uint32_t s = 0; s + 1 < t; ++s) largest = std::max(largest, n = 2 * n - 9);
+        return largest;
+    };
+    const auto sharedBytes = [](std::uint32_t g) { return 16 * (g * g + (g - 1) * (g - 1) + (g - 2) * (g - 2)); };
+    const std::uint32_t sharedLimit = context.properties.limits.maxComputeSharedMemorySize;
+    std::uint32_t side = PSUB_TILE_BLOCK;
+    if (!unrolled && blockLimit != PSUB_TILE_BLOCK &&
+        (blockLimit == PSUB_TILE_WIDE_BLOCK || sharedBytes(gridFor(PSUB_TILE_WIDE_BLOCK)) <= sharedLimit))
+        side = PSUB_TILE_WIDE_BLOCK;
     // Workgroup kernel: a tile of side L is cut into (L / M)^2 blocks, M the largest multiple of
-    // 2^t dividing L and at most PSUB_TILE_BLOCK (whole level-B cells, so a block's window is a
-    // part of the tile's gathered grid). Unrolled kernel: M = PSUB_TILE_BLOCK, compiled in, the
-    // last block of a row or column cut by the tile's side.
+    // 2^t dividing L and at most `side` (whole level-B cells, so a block's window is a part of
+    // the tile's gathered grid). Unrolled kernel: M = PSUB_TILE_BLOCK, compiled in, the last
+    // block of a row or column cut by the tile's side.
     const auto blockSide = [&](std::uint32_t L) {
         if (unrolled) return std::uint32_t(PSUB_TILE_BLOCK);
-        std::uint32_t M = std::min<std::uint32_t>(L, PSUB_TILE_BLOCK) >> t << t;
+        std::uint32_t M = std::min<std::uint32_t>(L, side) >> t << t;
         while (L % M != 0) M -= 1u << t;
         return M;
     };
+    std::uint32_t widest = 1u << t;  // the shared grids are sized for the widest block used
+    for (std::size_t k = 0; k < table.tileCount(); ++k) widest = std::max(widest, blockSide(table.lattice(k)));
+    const std::uint32_t grid = gridFor(widest);
+    // The unrolled kernel compiles in the halo of t, t + 1 (docs/tiled.md).
+    if (t == 0 || t > 3 || grid > (widest <= PSUB_TILE_BLOCK ? PSUB_TILE_GRID : PSUB_TILE_WIDE_GRID) ||
+        (unrolled && halo != t + 1))
+        throw std::invalid_argument("VulkanEvaluator: the tiled table's " + std::to_string(t) + " double steps and halo " +
+                                    std::to_string(halo) + " need grids beyond the tile kernel's");
+    if (!unrolled && sharedBytes(grid) > sharedLimit)
+        throw std::invalid_argument("VulkanEvaluator: tile blocks of " + std::to_string(widest) + " need " +
+                                    std::to_string(sharedBytes(grid)) + " bytes of shared memory, the device has " +
+                                    std::to_string(sharedLimit));
     const auto blocksOf = [&](std::size_t k) {
         const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k)), perSide = (L + M - 1) / M;
         return perSide * perSide;
@@ -262,6 +283,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, U
     const VertexBuffer& base = levels[table.baseLevel];
     stage.specialization = {width, base.stride, refinedBuffer().stride, base.windows > 1, refinedBuffer().windows > 1};
     stage.specialization.tileSteps = t;
+    stage.specialization.tileGrid = grid;
     stage.written = &refinedBuffer();
     for (const auto& [a, b] : chunks) {
         const std::uint64_t blocks = blockBegin[b] - blockBegin[a];

@@ -49,13 +49,18 @@ struct VulkanEvaluatorOptions {
     // Smaller values force the windowed path (bound ranges, split dispatches) on small meshes.
     std::uint64_t maxBindingBytes = 0;
     TileKernel tileKernel = TileKernel::Auto;
+    // The workgroup tile kernel's largest block side: 0 means 32 where the device's shared memory
+    // holds that block's grids (t <= 3: 27.7 KiB), else 16; 16 or 32 ask for that side.
+    std::uint32_t tileBlock = 0;
 };
 
 // GPU-side time of the last frame, from timestamp queries (valid is false when the queue has
-// no timestamps). levels: upload barrier and stencil dispatches; normals: both normal passes.
+// no timestamps). levels: upload barrier and stencil dispatches; normals: both normal passes;
+// upload: the part of levels before the first dispatch (the control points' staging copy on a
+// discrete device, the barrier alone elsewhere).
 struct GpuFrameTimes {
     bool valid = false;
-    double totalMs = 0, levelsMs = 0, normalsMs = 0;
+    double totalMs = 0, levelsMs = 0, normalsMs = 0, uploadMs = 0;
 };
 
 // Host-side time of the last evaluate(): writing the control points into the mapped buffer,
