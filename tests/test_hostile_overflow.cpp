@@ -121,6 +121,37 @@ TEST(HostileOverflowLibrary, RequireFiniteNamesTheFirstNonFiniteVertex) {
     }
 }
 
+// The scan without early exit (topology/range.cpp, allFinite) on long arrays: a NaN or an
+// infinity at any place, the tail past a vector's width included, in float and double; the
+// largest finite values, the smallest subnormals and zeros of both signs pass.
+template <class T>
+void checkEveryPlace() {
+    std::vector<T> values(1003);
+    for (std::size_t i = 0; i < values.size(); ++i)
+        values[i] = i % 4 == 0   ? std::numeric_limits<T>::max()
+                    : i % 4 == 1 ? -std::numeric_limits<T>::denorm_min()
+                    : i % 4 == 2 ? T(-0.0)
+                                 : T(i);
+    EXPECT_NO_THROW(requireFinite(std::span<const T>(values), "in.obj", "refined"));
+    for (std::size_t at : {std::size_t(0), std::size_t(17), std::size_t(500), std::size_t(1001), std::size_t(1002)})
+        for (T bad : {std::numeric_limits<T>::quiet_NaN(), -std::numeric_limits<T>::infinity()}) {
+            std::vector<T> copy = values;
+            copy[at] = bad;
+            try {
+                requireFinite(std::span<const T>(copy), "in.obj", "refined");
+                ADD_FAILURE() << "no error at " << at;
+            } catch (const InputError& e) {
+                EXPECT_TRUE(contains(e.what(), "in.obj: refined vertex " + std::to_string(at / 3 + 1) + " is not finite"))
+                    << e.what();
+            }
+        }
+}
+
+TEST(HostileOverflowLibrary, RequireFiniteFindsANonFiniteValueAnywhere) {
+    checkEveryPlace<float>();
+    checkEveryPlace<double>();
+}
+
 // --- The library: every evaluator on out-of-range control points --------------------------
 
 struct Cube {

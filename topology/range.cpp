@@ -2,8 +2,11 @@
 // the check that no refined value leaving a command is non-finite.
 #include "psub/topology.h"
 
+#include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <type_traits>
 
 namespace psub {
 namespace {
@@ -14,8 +17,21 @@ std::string shortNumber(double value) {
     return std::string(text, end);
 }
 
+// Whether every value is finite: all exponent bits set means infinite or NaN. An OR over the
+// bit tests (no early exit) vectorises; `psub play` runs this on every frame's positions and
+// normals, where the early-exit loop took 7% of a one-thread play.
+template <class T>
+bool allFinite(const T* values, std::size_t count) {
+    using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+    constexpr Bits exponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
+    Bits bad = 0;
+    for (std::size_t i = 0; i < count; ++i) bad |= Bits((std::bit_cast<Bits>(values[i]) & exponent) == exponent);
+    return bad == 0;
+}
+
 template <class T>
 void requireFiniteValues(std::span<const T> xyz, const std::string& input, const std::string& what) {
+    if (allFinite(xyz.data(), xyz.size())) return;
     for (std::size_t i = 0; i < xyz.size(); ++i)
         if (!std::isfinite(xyz[i]))
             throw InputError(input + ": " + what + " vertex " + std::to_string(i / 3 + 1) +
