@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 FIELDS = {"device": str, "torus": int, "levels": int, "faces": (int, float), "vertices": (int, float),
-          "double_steps": int, "tiles": int, "tiled_share": float, "tile_kernel": str, "frames": int,
+          "double_steps": int, "tiles": int, "tile_block": int, "tiled_share": float, "tile_kernel": str, "frames": int,
           "timestamps": bool, "gpu_ms_median": (int, float), "positions_ms_median": (int, float),
           "normals_ms_median": (int, float), "upload_ms_median": (int, float), "wall_ms_median": (int, float), "reached_gbs": (int, float)}
 
@@ -42,6 +42,8 @@ def main():
         records = [json.loads(line) for line in f if line.strip()]
     if [r.get("tile_kernel") for r in records] != ["auto", "workgroup16", "workgroup32"]:
         fail("expected the auto kernel's record, then the workgroup kernel's with each block side: %s" % records)
+    if [r.get("tile_block") for r in records[1:]] != [16, 32]:
+        fail("the workgroup kernel's records name blocks of 16 and 32: %s" % records)
     for r in records:
         for name, kind in FIELDS.items():
             if not isinstance(r.get(name), kind):

@@ -88,11 +88,11 @@ EOF
     }
     for size in "${sizes[@]}"; do
         # shellcheck disable=SC2086
-        frame $size 50 auto
+        frame $size 200 auto
     done
     for other in "${others[@]}"; do
         # shellcheck disable=SC2086
-        frame ${sizes[-1]} 20 "$other"
+        frame ${sizes[-1]} 100 "$other"
     done
     rm -f "$out/frame.txt" "$out/error.txt"
     printf '```\n' >> "$out/gpu.md"

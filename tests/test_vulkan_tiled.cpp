@@ -45,6 +45,17 @@ std::string kernelName(KernelChoice choice) {
                                                   : std::string("unrolled kernel");
 }
 
+// The workgroup kernel's widest block (docs/tiled.md, "On Vulkan"): per tile, the largest
+// multiple of 2^t that divides its lattice side L and is at most `limit`.
+std::uint32_t widestBlock(const TiledTable& tiled, std::uint32_t limit) {
+    std::uint32_t widest = 0;
+    const std::uint32_t step = 1u << tiled.doubleSteps;
+    for (std::size_t k = 0; k < tiled.tileCount(); ++k)
+        for (std::uint32_t M = step; M <= std::min(limit, tiled.lattice(k)); M += step)
+            if (tiled.lattice(k) % M == 0) widest = std::max(widest, M);
+    return widest;
+}
+
 struct Tiled {
     test::Loaded loaded;
     Refinement r;
@@ -138,7 +149,10 @@ TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
         ASSERT_GT(t.r.tiled.tileCount(), 0u);
         ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
         doubleSteps = std::max(doubleSteps, t.r.tiled.doubleSteps);
-        for (KernelChoice kernel : kTileKernels)
+        for (KernelChoice kernel : kTileKernels) {
+            EXPECT_EQ(VulkanEvaluator(context(), t.r.tiled, 3, withKernel(kernel)).tileBlockSide(),
+                      kernel.kernel == TileKernel::Unrolled ? 16u : widestBlock(t.r.tiled, kernel.block))
+                << kernelName(kernel);
             for (std::size_t w = 0; w < kWidths.size(); ++w) {
                 if (test::kSanitized && w != std::size_t(steps) % 4 && w != std::size_t(steps + 2) % 4) continue;
                 // Under the sanitizers, blocks of 16 at the largest t alone (the others' are covered by
@@ -149,6 +163,7 @@ TEST_F(VulkanTiled, TorusAtEveryDoubleStepCountAndWidthIsTheCpusBits) {
                 compareWithCpu(context(), t, width, width == 3 || width == 4 || steps % 2 == 0 ? 0.0 : 1e-6,
                                withKernel(kernel));
             }
+        }
     }
     EXPECT_EQ(doubleSteps, 3u);
 }

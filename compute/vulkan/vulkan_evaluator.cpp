@@ -164,6 +164,7 @@ std::uint32_t VulkanEvaluator::refinedCount() const { return impl_->refined; }
 std::uint32_t VulkanEvaluator::width() const { return impl_->width; }
 GpuFrameTimes VulkanEvaluator::lastFrameTimes() const { return impl_->times; }
 bool VulkanEvaluator::normalsInTilePass() const { return impl_->tileNormals; }
+std::uint32_t VulkanEvaluator::tileBlockSide() const { return impl_->tileBlockSide; }
 HostFrameTimes VulkanEvaluator::lastHostTimes() const { return impl_->hostTimes; }
 
 std::size_t VulkanEvaluator::dispatchCount(bool withNormals) const {

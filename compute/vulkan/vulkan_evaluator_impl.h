@@ -125,6 +125,7 @@ struct VulkanEvaluator::Impl {
     std::vector<Stage> stencilStages, normalStages;
     bool hasSurface = false;
     bool tileNormals = false;  // the tiled form's normals split (buildTileNormals)
+    std::uint32_t tileBlockSide = 0;  // the widest tile block (buildTiles)
     const SurfaceTable* drawnSurface = nullptr;  // the contract's drawing order (kept by reference)
     VkCommandBuffer deviceFrame = VK_NULL_HANDLE;  // submit(): re-recorded per call
     VkFence deviceFence = VK_NULL_HANDLE;          // submit(): signalled when its frame is done

@@ -230,6 +230,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
     std::uint32_t widest = 1u << t;  // the shared grids are sized for the widest block used
     for (std::size_t k = 0; k < table.tileCount(); ++k) widest = std::max(widest, blockSide(table.lattice(k)));
     const std::uint32_t grid = gridFor(widest);
+    tileBlockSide = widest;
     // The unrolled kernel compiles in the halo of t, t + 1 (docs/tiled.md).
     if (t == 0 || t > 3 || grid > (widest <= PSUB_TILE_BLOCK ? PSUB_TILE_GRID : PSUB_TILE_WIDE_GRID) ||
         (unrolled && halo != t + 1))

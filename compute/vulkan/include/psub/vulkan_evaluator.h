@@ -143,6 +143,10 @@ public:
     // for the other forms, and where the CPU would not split, a face is no quad, a vertex is in
     // more than 8 faces or a buffer needs more than one binding window.
     bool normalsInTilePass() const;
+    // The tiled form's widest tile block, in lattice intervals a side: the workgroup kernel's
+    // (at most 16, or 32 where the device's shared memory holds it: VulkanEvaluatorOptions::
+    // tileBlock), the unrolled kernel's 16; 0 without tiles.
+    std::uint32_t tileBlockSide() const;
     // Dispatches in a frame's command buffer: stencils only, and with normals.
     std::size_t dispatchCount(bool withNormals = false) const;
     // Bytes of device buffers held (tables, levels, normals, staging).
