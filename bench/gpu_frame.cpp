@@ -8,10 +8,11 @@
 // BANDWIDTH_GBS (the device's copy bandwidth measured in the same run) also its fraction. One
 // frame is then read back and compared with the CPU's tiled evaluator (exit 1 beyond the
 // contract's tolerances): the GPU run checks the results on the GPU too.
-//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|workgroup16|workgroup32|unrolled]
+//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|workgroup16|workgroup32|unrolled[+normals]]
 //                  [BANDWIDTH_GBS]
 // (workgroup16 and workgroup32: the workgroup kernel with blocks of at most that side; plain
-// workgroup and auto let the device's shared memory choose.)
+// workgroup and auto let the device's shared memory choose; +normals: the tile kernel writes the
+// inner points' normals itself where it can, VulkanEvaluatorOptions::fusedTileNormals.)
 // Prints one line of text and one JSON object (the last line).
 #include "bench.h"
 #include "detail.h"
@@ -41,14 +42,21 @@ int main(int argc, char** argv) {
     const int levels = argc > 2 ? int(parseArgument(argv[2], "LEVELS", 1, 12)) : 6;
     const int frames = argc > 3 ? int(parseArgument(argv[3], "FRAMES", 1, 100000)) : 50;
     const std::string kernelName = argc > 4 ? argv[4] : "auto";
+    // KERNEL+normals: the workgroup kernel writing the inner points' normals itself.
+    const std::string suffix = "+normals";
+    const bool fused = kernelName.size() > suffix.size() && kernelName.ends_with(suffix);
+    const std::string kernel = fused ? kernelName.substr(0, kernelName.size() - suffix.size()) : kernelName;
     const double bandwidth = argc > 5 ? parseArgument(argv[5], "BANDWIDTH_GBS", 0, 1e6, false) : 0;
     psub::VulkanEvaluatorOptions options;
-    if (kernelName.rfind("workgroup", 0) == 0) options.tileKernel = psub::TileKernel::Workgroup;
-    if (kernelName == "workgroup16") options.tileBlock = 16;
-    else if (kernelName == "workgroup32") options.tileBlock = 32;
-    else if (kernelName == "unrolled") options.tileKernel = psub::TileKernel::Unrolled;
-    else if (kernelName != "auto" && kernelName != "workgroup") {
-        std::fprintf(stderr, "psub_gpu_frame: the tile kernel is auto, workgroup, workgroup16, workgroup32 or unrolled, not %s\n",
+    options.fusedTileNormals = fused;
+    if (kernel.starts_with("workgroup")) options.tileKernel = psub::TileKernel::Workgroup;
+    if (kernel == "workgroup16") options.tileBlock = 16;
+    else if (kernel == "workgroup32") options.tileBlock = 32;
+    else if (kernel == "unrolled") options.tileKernel = psub::TileKernel::Unrolled;
+    else if (kernel != "auto" && kernel != "workgroup") {
+        std::fprintf(stderr,
+                     "psub_gpu_frame: the tile kernel is auto, workgroup, workgroup16, workgroup32 or unrolled, each "
+                     "with +normals or not, not %s\n",
                      kernelName.c_str());
         return 2;
     }
@@ -98,25 +106,25 @@ int main(int argc, char** argv) {
         const double bytes = vertices * 4.0 * sizeof(float) * 2;  // positions and normals, 4 floats each
         const double gpuMs = median(gpu), reached = gpuMs > 0 ? bytes / (gpuMs * 1e6) : 0;
         std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; "
-                    "%s kernel (blocks of %u); frame (evaluate + normals, kept on the device) GPU %.3f ms "
+                    "%s kernel (blocks of %u%s); frame (evaluate + normals, kept on the device) GPU %.3f ms "
                     "(positions %.3f of which the upload %.3f, normals %.3f), wall %.3f ms; it writes %.1f MB a "
                     "frame: %.1f GB/s",
                     context.deviceName().c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
                     100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds, kernelName.c_str(),
-                    evaluator.tileBlockSide(), gpuMs,
+                    evaluator.tileBlockSide(), evaluator.normalsInTileKernel() ? ", normals in it" : "", gpuMs,
                     median(positions), median(uploads), median(normals), median(wall), bytes / 1e6, reached);
         if (bandwidth > 0) std::printf(" (%.1f%% of %.0f GB/s)", 100 * reached / bandwidth, bandwidth);
         std::printf("; against the CPU's tiled evaluator: positions %.2g of the diagonal, normals %.2g%s", positionDiff,
                     normalDiff, agrees ? "" : " (FAILED: above 1e-6 and 1e-5)");
         std::printf("\n{\"device\": \"%s\", \"torus\": %d, \"levels\": %d, \"faces\": %.0f, \"vertices\": %.0f, "
-                    "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", \"tile_block\": %u, "
+                    "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", \"tile_block\": %u, \"normals_in_tile_kernel\": %s, "
                     "\"build_s\": %.3f, \"frames\": %d, \"timestamps\": %s, \"gpu_ms_median\": %.4f, "
                     "\"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, \"upload_ms_median\": %.4f, \"normals_ms_median\": %.4f, "
                     "\"wall_ms_median\": %.4f, \"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f, "
                     "\"position_difference\": %.3g, \"normal_difference\": %.3g, \"agrees\": %s}\n",
                     context.deviceName().c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
                     double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(),
-                    evaluator.tileBlockSide(), buildSeconds,
+                    evaluator.tileBlockSide(), evaluator.normalsInTileKernel() ? "true" : "false", buildSeconds,
                     frames, gpu.empty() ? "false" : "true", gpuMs, gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end()),
                     median(positions), median(uploads), median(normals), median(wall), bytes, reached, bandwidth, positionDiff,
                     normalDiff,

@@ -8,9 +8,10 @@
 #       on the GPU's machine, from the repository's root, with .gpu/ carried there: the device's
 #       copy bandwidth (a device-to-device copy through PyTorch, where python3 has it), then
 #       psub_gpu_frame on the torus at 1M, 4.2M and 16.8M faces (the tile kernel the device
-#       gets, then the workgroup kernel with blocks of 16 at 16.8M), with nvidia-smi's clocks
-#       sampled meanwhile. `quick`: one small torus, for trying the script on lavapipe (its
-#       kernel, then the workgroup kernel with each block side). Results: $OUT/gpu.md,
+#       gets, then at 16.8M the workgroup kernel with blocks of 16, and with the normals in the
+#       tile kernel at either block side), with nvidia-smi's clocks sampled meanwhile. `quick`:
+#       one small torus, for trying the script on lavapipe (its kernel, then the workgroup
+#       kernel with each block side and with the normals in it). Results: $OUT/gpu.md,
 #       $OUT/gpu.jsonl and $OUT/clocks.csv (./gpu-out/ when OUT is unset).
 # bench/README.md ("A run for a GPU") has the commands and what was measured.
 set -euo pipefail
@@ -66,8 +67,8 @@ EOF
     fi
     printf '\n```\n' >> "$out/gpu.md"
     : > "$out/gpu.jsonl"
-    local sizes=("512 2" "512 4" "512 6") others=(workgroup16) status=0 sampler=
-    [[ ${1:-} == quick ]] && sizes=("64 2") && others=(workgroup16 workgroup32)
+    local sizes=("512 2" "512 4" "512 6") others=(workgroup16 workgroup+normals workgroup16+normals) status=0 sampler=
+    [[ ${1:-} == quick ]] && sizes=("64 2") && others=(workgroup16 workgroup32 workgroup+normals)
     # The GPU's clocks every 250 ms while the frames run (a GPU left idle between frames may
     # not reach its highest clock).
     if command -v nvidia-smi > /dev/null; then

@@ -61,6 +61,24 @@ uint ringEntry(uint x, uint y, uint L) {
     return y == 0u ? x : y == L ? 3u * L - 1u + x : L + 2u * y - 1u + (x == L ? 1u : 0u);
 }
 
+// A quad's normal from its corners in order: the cross product of its diagonals, (p2 - p0) x
+// (p3 - p1), the CPU's (compute/cpu_evaluator.cpp), the same bits from whichever corner it
+// starts. The tiled form's normals (tile_normals.comp, and tile.comp with PSUB_SPEC_TILE_NORMALS):
+// a lattice point's unit normal from its four quads' normals, those of quads (x - 1, y - 1),
+// (x, y - 1), (x - 1, y) and (x, y), summed in the CPU tile pass's order
+// (compute/tiled_kernels.cpp), so the same bits.
+vec3 quadNormal(vec3 p0, vec3 p1, vec3 p2, vec3 p3) {
+    precise vec3 a = p2 - p0, b = p3 - p1;
+    precise vec3 n = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+    return n;
+}
+vec4 unitNormal(vec3 q00, vec3 q10, vec3 q01, vec3 q11) {
+    precise vec3 s = (q00 + q10) + (q01 + q11);
+    precise float size = sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
+    precise float scale = size > 0.0 ? 1.0 / size : 0.0;
+    return vec4(s * scale, 0.0);
+}
+
 // This invocation's row within the dispatch (workgroups numbered x first, then y).
 uint rowIndex() {
     return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * PSUB_WORKGROUP_SIZE +

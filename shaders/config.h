@@ -49,6 +49,9 @@
 #define PSUB_SPEC_LISTED 9             // face and vertex normals: rows are the faces or vertices
                                        // listed in TABLE_A (fixed layouts only), not a range
 #define PSUB_SPEC_TILE_GRID 10         // tile.comp: the side of its shared grids (see below)
+#define PSUB_SPEC_TILE_NORMALS 11      // tile.comp, non-zero: also the tiles' inner points' unit normals,
+                                       // written to PSUB_BINDING_DESTINATION + 1 (the positions in one
+                                       // window), the last fine grid kept at this side (block side + 3)
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once

@@ -22,12 +22,6 @@ layout(constant_id = PSUB_SPEC_ROW_N) const uint kCorners = 0xffffffffu;
 // beside its tiles' inner points).
 layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
-vec3 quadNormal(vec3 p0, vec3 p1, vec3 p2, vec3 p3) {
-    precise vec3 a = p2 - p0, b = p3 - p1;
-    precise vec3 n = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-    return n;
-}
-
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;

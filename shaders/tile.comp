@@ -11,7 +11,11 @@
 // The shared grids' side: the largest grid any step keeps, for the block side the host chose
 // from the device's shared memory (PSUB_TILE_GRID for blocks of 16, more for blocks of 32).
 layout(constant_id = PSUB_SPEC_TILE_GRID) const uint kGrid = PSUB_TILE_GRID;
-shared vec4 grid[kGrid * kGrid];              // the current level's grid, row by row
+// Non-zero: also the unit normals of the tiles' inner points (emitWithNormals), the last fine
+// pass keeping a grid of this side (the widest block's side + 3) in `grid`.
+layout(constant_id = PSUB_SPEC_TILE_NORMALS) const uint kKeptSide = 0;
+const bool kNormals = kKeptSide != 0u;
+shared vec4 grid[kKeptSide > kGrid ? kKeptSide * kKeptSide : kGrid * kGrid];  // the current level's grid, row by row
 shared vec4 qv[(kGrid - 2u) * (kGrid - 2u)];  // its inner vertices' V-points
 shared vec4 qf[(kGrid - 1u) * (kGrid - 1u)];  // its cells' F-points
 
@@ -68,6 +72,30 @@ void fineStep(uint n, uint p0, uint side, const bool last) {
     }
 }
 
+// With normals (where the last fine grid reaches two points past the block on each side: t = 3):
+// the last fine pass keeps the block's points and a ring around them in the grid (from lattice
+// point (-2, -2), an even start for the pass's cells; side M + 3), then writes each point its
+// tile owns and gives each such inner point the unit normal of its four quads, read from the
+// 3 x 3 points around it, to the destination's second binding (the normals; the positions then
+// fit in the first). The tile_normals.comp pass's sums in its order: the same bits.
+void emitWithNormals(uint side) {
+    const uint points = blockM + 1u;
+    for (uint k = gl_LocalInvocationIndex; k < points * points; k += PSUB_WORKGROUP_SIZE) {
+        const uvec2 xy = cell(k, points);
+        bool inner;
+        const uint at = ownedAt(xy.x, xy.y, inner);
+        if (at == kNowhere) continue;
+        const uint c = (xy.y + 2u) * side + xy.x + 2u;
+        writeValues(at, firstValue, grid[c]);
+        if (!inner) continue;
+        const vec3 p00 = grid[c - side - 1u].xyz, p10 = grid[c - side].xyz, p20 = grid[c - side + 1u].xyz;
+        const vec3 p01 = grid[c - 1u].xyz, p11 = grid[c].xyz, p21 = grid[c + 1u].xyz;
+        const vec3 p02 = grid[c + side - 1u].xyz, p12 = grid[c + side].xyz, p22 = grid[c + side + 1u].xyz;
+        destinationVector1.v[at] = unitNormal(quadNormal(p00, p10, p11, p01), quadNormal(p10, p20, p21, p11),
+                                              quadNormal(p01, p11, p12, p02), quadNormal(p11, p21, p22, p12));
+    }
+}
+
 void main() {
     const uint block = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (block >= pc.rowCount) return;  // the whole workgroup: no barrier is skipped by some
@@ -92,7 +120,13 @@ void main() {
         barrier();
         quincunx(n);
         barrier();
-        fineStep(n, r0, blockM + 1u, true);
+        if (kNormals) {
+            fineStep(n, r0 - 2u, blockM + 3u, false);
+            barrier();
+            emitWithNormals(blockM + 3u);
+        } else {
+            fineStep(n, r0, blockM + 1u, true);
+        }
         barrier();  // the next values' gather overwrites the grid
     }
 }

@@ -93,15 +93,24 @@ void readBlock(uint block) {
 // Writes the block's lattice point (x, y) if its tile owns it. Each point of the tile's lattice
 // is written by one block (the right and top edges by the last block of their row or column);
 // points beyond the lattice (a last block cut by the tile's side) by none.
-void emit(uint x, uint y, vec4 value) {
+// The drawing position emit() writes lattice point (x, y) of the block at, or ~0u where it
+// writes none; `inner`: a point inside the tile's ring (the points whose normals tile.comp
+// writes with PSUB_SPEC_TILE_NORMALS).
+const uint kNowhere = 0xffffffffu;
+uint ownedAt(uint x, uint y, out bool inner) {
     const uint X = blockX0 + x, Y = blockY0 + y, L = blockL, M = blockM;
-    if (X > L || Y > L || (x == M && X != L) || (y == M && Y != L)) return;
-    uint at;
+    inner = false;
+    if (X > L || Y > L || (x == M && X != L) || (y == M && Y != L)) return kNowhere;
     if (X > 0u && X < L && Y > 0u && Y < L) {
-        at = outputBegin + (Y - 1u) * (L - 1u) + X - 1u;
-    } else {
-        at = borderAt(borderFirst + ringEntry(X, Y, L));
-        if (at < outputBegin || at >= outputEnd) return;
+        inner = true;
+        return outputBegin + (Y - 1u) * (L - 1u) + X - 1u;
     }
-    writeValues(at, firstValue, value);
+    const uint at = borderAt(borderFirst + ringEntry(X, Y, L));
+    return at >= outputBegin && at < outputEnd ? at : kNowhere;
+}
+
+void emit(uint x, uint y, vec4 value) {
+    bool inner;
+    const uint at = ownedAt(x, y, inner);
+    if (at != kNowhere) writeValues(at, firstValue, value);
 }

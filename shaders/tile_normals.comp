@@ -30,13 +30,6 @@ uint latticePoint(uint x, uint y, uint L, uint first, uint ring) {
     return point;
 }
 
-// Quad (x, y)-(x + 1, y + 1)'s normal: (p(x+1, y+1) - p(x, y)) x (p(x, y+1) - p(x+1, y)).
-vec3 quadNormal(vec3 p00, vec3 p10, vec3 p01, vec3 p11) {
-    precise vec3 a = p11 - p00, b = p01 - p10;
-    precise vec3 n = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-    return n;
-}
-
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
@@ -53,15 +46,13 @@ void main() {
     [[unroll]] for (uint r = 0u; r <= kRows; ++r)
         [[unroll]] for (uint i = 0u; i <= kRun; ++i) {
             const uint a = r * kRead + i, b = a + kRead;
-            q[r * (kRun + 1u) + i] = quadNormal(p[a], p[a + 1u], p[b], p[b + 1u]);
+            q[r * (kRun + 1u) + i] = quadNormal(p[a], p[a + 1u], p[b + 1u], p[b]);
         }
     [[unroll]] for (uint r = 0u; r < kRows; ++r)
         [[unroll]] for (uint j = 0u; j < kRun; ++j)
             if (x0 + j < L && y0 + r < L) {
                 const uint lo = r * (kRun + 1u) + j, hi = lo + kRun + 1u;
-                precise vec3 s = (q[lo] + q[lo + 1u]) + (q[hi] + q[hi + 1u]);
-                precise float size = sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
-                precise float scale = size > 0.0 ? 1.0 / size : 0.0;
-                writeElement(first + (y0 + r - 1u) * (L - 1u) + x0 + j - 1u, vec4(s * scale, 0.0));
+                writeElement(first + (y0 + r - 1u) * (L - 1u) + x0 + j - 1u,
+                             unitNormal(q[lo], q[lo + 1u], q[hi], q[hi + 1u]));
             }
 }

@@ -185,6 +185,40 @@ TEST_F(VulkanTiled, NormalsOfTheTilesInnerPointsAreTheCpuTilePassBits) {
     }
 }
 
+// The normals in the workgroup tile kernel (VulkanEvaluatorOptions::fusedTileNormals): at t = 3
+// the kernel writes the inner points' normals from its last fine grid, the CPU tile pass's bits,
+// on a torus all tiles and one with fallback strips (blocks of 16: lavapipe's shared memory
+// holds those grids, not those of 32); frames without normals after frames with them, and the
+// normals of uploaded positions (no tile kernel then: the tile_normals.comp pass), the same; at
+// t = 2 the last fine grid has no spare points, so the separate pass serves.
+TEST_F(VulkanTiled, NormalsInTheTileKernelAreTheCpuTilePassBits) {
+    VulkanEvaluatorOptions fused = withKernel({TileKernel::Workgroup, 16});
+    fused.fusedTileNormals = true;
+    for (const auto& [n, m, steps] : {std::tuple{24, 24, 6}, std::tuple{48, 32, 7}, std::tuple{24, 24, 4}}) {
+        SCOPED_TRACE(std::to_string(n) + " x " + std::to_string(m) + " steps " + std::to_string(steps));
+        const Tiled t = tiledFor(test::loadTorus(n, m), steps);
+        ASSERT_GT(t.r.tiled.tileCount(), 0u);
+        VulkanEvaluator gpu(context(), t.r.tiled, 3, fused);
+        EXPECT_TRUE(gpu.normalsInTilePass());
+        EXPECT_EQ(gpu.normalsInTileKernel(), t.r.tiled.doubleSteps == 3);
+        EXPECT_FALSE(VulkanEvaluator(context(), t.r.tiled, 3, withKernel({TileKernel::Workgroup, 16})).normalsInTileKernel());
+        compareWithCpu(context(), t, 3, 0.0, fused);
+        CpuEvaluator<float> cpu(t.r.tiled, 3, 2);
+        const std::size_t values = 3 * std::size_t(cpu.refinedCount());
+        std::vector<float> expected(values), expectedNormals(values), actual(values), actualNormals(values);
+        const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 3);
+        cpu.evaluate(control, expected, expectedNormals);
+        gpu.evaluate(control, actual, actualNormals);
+        EXPECT_EQ(largestDifference(actualNormals, expectedNormals), 0.0);
+        std::fill(actual.begin(), actual.end(), NAN);
+        gpu.evaluate(control, actual);  // positions alone: the plain tile kernel
+        EXPECT_EQ(largestDifference(actual, expected), 0.0);
+        std::fill(actualNormals.begin(), actualNormals.end(), NAN);
+        gpu.normals(expected, actualNormals);  // uploaded positions: the separate pass
+        EXPECT_EQ(largestDifference(actualNormals, expectedNormals), 0.0);
+    }
+}
+
 // A tile side that is no power of two, at t = 2 on a 30 x 30 torus: four tiles of 15 faces,
 // lattices of 60 (the workgroup kernel: five blocks of 12 a side; the unrolled one: three of
 // 16 and one cut to 12, its window clamped to the tile's grid).

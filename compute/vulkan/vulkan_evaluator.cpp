@@ -134,6 +134,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
                                      Memory::Readback, true);
     }
 
+    e.fusedTileNormals = options.fusedTileNormals;
     Uploader uploader(c, !e.staging);
     if (form == TableForm::Factorized) e.buildFactorized(factorized, uploader);
     else e.buildPerLevel(perLevel, uploader);
@@ -165,13 +166,20 @@ std::uint32_t VulkanEvaluator::width() const { return impl_->width; }
 GpuFrameTimes VulkanEvaluator::lastFrameTimes() const { return impl_->times; }
 bool VulkanEvaluator::normalsInTilePass() const { return impl_->tileNormals; }
 std::uint32_t VulkanEvaluator::tileBlockSide() const { return impl_->tileBlockSide; }
+bool VulkanEvaluator::normalsInTileKernel() const {
+    for (const Stage& s : impl_->stencilStages)
+        if (s.specialization.tileKeptSide != 0) return true;
+    return false;
+}
 HostFrameTimes VulkanEvaluator::lastHostTimes() const { return impl_->hostTimes; }
 
 std::size_t VulkanEvaluator::dispatchCount(bool withNormals) const {
     std::size_t count = 0;
-    for (const Stage& s : impl_->stencilStages) count += s.dispatches.size();
+    for (const Stage& s : impl_->stencilStages)
+        if (s.runsIn(true, withNormals)) count += s.dispatches.size();
     if (withNormals)
-        for (const Stage& s : impl_->normalStages) count += s.dispatches.size();
+        for (const Stage& s : impl_->normalStages)
+            if (s.runsIn(true, true)) count += s.dispatches.size();
     return count;
 }
 

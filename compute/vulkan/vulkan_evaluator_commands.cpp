@@ -27,10 +27,11 @@ VkCommandBuffer VulkanEvaluator::Impl::frame(unsigned kind) {
     return frames[kind] = command;
 }
 
-void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector<Stage>& stages) {
+void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector<Stage>& stages, bool stencils,
+                                      bool withNormals) {
     const VkPipelineLayout layout = pipelines->layout();
     for (const Stage& stage : stages) {
-        if (stage.dispatches.empty()) continue;
+        if (stage.dispatches.empty() || !stage.runsIn(stencils, withNormals)) continue;
         for (std::size_t i = 0; i < stage.dispatches.size(); ++i) {
             const Dispatch& d = stage.dispatches[i];
             if (i == 0 || d.rowN != stage.dispatches[i - 1].rowN || d.rowM != stage.dispatches[i - 1].rowM) {
@@ -49,10 +50,13 @@ void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector
             vkCmdDispatch(command, d.groupsX, d.groupsY, 1);
         }
         // Later stages read what this one wrote, or (the heavy vertices' normals) write it again.
-        bufferBarrier(command, stage.written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
-                          VK_ACCESS_HOST_READ_BIT);
+        for (const VertexBuffer* written : {stage.written, stage.alsoWritten})
+            if (written)
+                bufferBarrier(command, written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                              VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
+                                  VK_PIPELINE_STAGE_HOST_BIT,
+                              VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                                  VK_ACCESS_HOST_READ_BIT);
     }
 }
 
@@ -85,7 +89,7 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
     }
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_TRANSFER_BIT, queries, kQueryUploaded);
-    if (kind & kStencils) runStages(command, stencilStages);
+    if (kind & kStencils) runStages(command, stencilStages, true, kind & kNormals);
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryStencils);
     if (kind & kNormals) {
         // The zero element after the face normals (see buildNormals).
@@ -93,7 +97,7 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
                         faceNormals.stride * 4, 0);
         memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        runStages(command, normalStages);
+        runStages(command, normalStages, kind & kStencils, true);
     }
     if (queries) vkCmdWriteTimestamp(command, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, queries, kQueryNormals);
     if (staging && (kind & (kReadRefined | kReadNormals))) {
@@ -152,13 +156,13 @@ void VulkanEvaluator::Impl::recordDevice(VkCommandBuffer command, const VulkanDe
     memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                   VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
-    runStages(command, stencilStages);
+    runStages(command, stencilStages, true, withNormals);
     if (withNormals) {
         vkCmdFillBuffer(command, faceNormals.buffer.buffer, (faceNormals.elements - 1) * faceNormals.stride * 4,
                         faceNormals.stride * 4, 0);
         memoryBarrier(command, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        runStages(command, normalStages);
+        runStages(command, normalStages, true, true);
     }
     const VkDeviceSize refinedBytes = std::uint64_t(refined) * refinedBuffer().stride * 4;
     if (buffers.refined.buffer && refinedBytes) {

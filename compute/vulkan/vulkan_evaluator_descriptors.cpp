@@ -63,6 +63,7 @@ void VulkanEvaluator::Impl::writeDescriptorSets() {
                     infos[PSUB_BINDING_SOURCE + w] = vertexWindow(*d.source, w);
                     infos[PSUB_BINDING_DESTINATION + w] = vertexWindow(*d.destination, w);
                 }
+                if (d.secondDestination) infos[PSUB_BINDING_DESTINATION + 1] = vertexWindow(*d.secondDestination, 0);
                 for (int t = 0; t < 3; ++t)
                     infos[PSUB_BINDING_TABLE_A + t] = {d.tables[t].buffer, d.tables[t].offset, d.tables[t].range};
                 // The texel-buffer bindings: the input's windows and the three table windows.

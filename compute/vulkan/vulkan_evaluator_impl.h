@@ -69,8 +69,14 @@ struct Dispatch {
     // What the descriptor set binds (written once, at construction).
     const VertexBuffer* source = nullptr;
     const VertexBuffer* destination = nullptr;
+    const VertexBuffer* secondDestination = nullptr;  // bound as the destination's window 1 (tile.comp's normals)
     Window tables[3];
 };
+
+// Which frames run a stage: every frame that runs its list, or (the tiled form with its normals
+// in the tile kernel) only frames with normals, only frames without, only frames that upload
+// positions instead of refining them.
+enum class StageRuns { Always, WithNormals, WithoutNormals, WithoutStencils };
 
 // Dispatches of one kernel that may run together, then a barrier on what they wrote.
 struct Stage {
@@ -78,6 +84,13 @@ struct Stage {
     Specialization specialization;
     std::vector<Dispatch> dispatches;
     const VertexBuffer* written = nullptr;
+    const VertexBuffer* alsoWritten = nullptr;
+    StageRuns runs = StageRuns::Always;
+
+    bool runsIn(bool stencils, bool normals) const {
+        return runs == StageRuns::Always || (runs == StageRuns::WithNormals && normals) ||
+               (runs == StageRuns::WithoutNormals && !normals) || (runs == StageRuns::WithoutStencils && !stencils);
+    }
 };
 
 // Table arrays uploaded once, into buffers the evaluator keeps (the core's staged uploads:
@@ -126,6 +139,9 @@ struct VulkanEvaluator::Impl {
     bool hasSurface = false;
     bool tileNormals = false;  // the tiled form's normals split (buildTileNormals)
     std::uint32_t tileBlockSide = 0;  // the widest tile block (buildTiles)
+    std::size_t tileStage = ~std::size_t(0);  // the tile kernel's stage in stencilStages (buildTiles)
+    bool fusedTileNormals = false;  // option: the workgroup tile kernel writes the inner points' normals
+    std::uint32_t tileKeptSide = 0;  // where it can (buildTiles): its last fine grid's side
     const SurfaceTable* drawnSurface = nullptr;  // the contract's drawing order (kept by reference)
     VkCommandBuffer deviceFrame = VK_NULL_HANDLE;  // submit(): re-recorded per call
     VkFence deviceFence = VK_NULL_HANDLE;          // submit(): signalled when its frame is done
@@ -172,7 +188,8 @@ struct VulkanEvaluator::Impl {
     // One frame of `kind`: uploads `control`, submits, waits, copies out what was asked for.
     void frame(std::span<const float> control, unsigned kind, std::span<float> refinedOut, std::span<float> normalsOut);
     void record(VkCommandBuffer command, unsigned kind);
-    void runStages(VkCommandBuffer command, const std::vector<Stage>& stages);
+    // The stages that run in a frame that refines (`stencils`) or not, with normals or not.
+    void runStages(VkCommandBuffer command, const std::vector<Stage>& stages, bool stencils, bool withNormals);
     void submit(unsigned kind);
     // Caller-owned buffers (psub/vulkan_interop.h).
     void recordDevice(VkCommandBuffer command, const VulkanDeviceBuffers& buffers);

@@ -240,6 +240,22 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
         throw std::invalid_argument("VulkanEvaluator: tile blocks of " + std::to_string(widest) + " need " +
                                     std::to_string(sharedBytes(grid)) + " bytes of shared memory, the device has " +
                                     std::to_string(sharedLimit));
+    // The normals in the tile kernel (VulkanEvaluatorOptions::fusedTileNormals): its last fine
+    // pass keeps lattice points -2 .. M of each side (tile.comp, emitWithNormals), so the last
+    // fine grid must reach two points before the block and two past it, r0 >= 2 (t = 3), and the
+    // shared memory hold that grid too; positions of 3 or 4 values in one binding window.
+    const int r0 = int(halo << t) + 4 - int(4u << t);
+    bool reaches = fusedTileNormals && !unrolled && (width == 3 || width == 4) && r0 >= 2 &&
+                   refinedBuffer().windows == 1;
+    for (std::size_t k = 0; k < table.tileCount() && reaches; ++k) {
+        const std::uint32_t M = blockSide(table.lattice(k));
+        std::uint32_t n = (M >> t) + 2 * halo + 1;
+        for (std::uint32_t s = 0; s + 1 < t; ++s) n = 2 * n - 9;
+        reaches = std::uint32_t(r0) - 2 + M + 3 <= 2 * n - 9;  // the last fine grid's valid side
+    }
+    const std::uint32_t kept = widest + 3;
+    if (reaches && 16 * (std::max(grid * grid, kept * kept) + (grid - 1) * (grid - 1) + (grid - 2) * (grid - 2)) <= sharedLimit)
+        tileKeptSide = kept;
     const auto blocksOf = [&](std::size_t k) {
         const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k)), perSide = (L + M - 1) / M;
         return perSide * perSide;
@@ -305,6 +321,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
         d.push.destinationWindowSize = refinedBuffer().windowSize;
         stage.dispatches.push_back(d);
     }
+    tileStage = stencilStages.size();
     stencilStages.push_back(std::move(stage));
 }
 
@@ -462,8 +479,21 @@ bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buff
     const auto chunks = [&](std::uint64_t count, std::uint64_t bytes, const char* what) {
         return split(count, [&](std::uint64_t a, std::uint64_t b) { return fits(bytes * (b - a)); }, what);
     };
+    // The normals in the tile kernel where it can (buildTiles): a second tile stage, with them,
+    // for frames with normals; the plain one for frames without; the pass below only for the
+    // normals of uploaded positions (frames that run no tile kernel).
+    if (tileKeptSide != 0 && tileStage < stencilStages.size()) {
+        Stage fused = stencilStages[tileStage];
+        fused.specialization.tileKeptSide = tileKeptSide;
+        fused.alsoWritten = &normals;
+        fused.runs = StageRuns::WithNormals;
+        for (Dispatch& d : fused.dispatches) d.secondDestination = &normals;
+        stencilStages[tileStage].runs = StageRuns::WithoutNormals;
+        stencilStages.insert(stencilStages.begin() + std::ptrdiff_t(tileStage) + 1, std::move(fused));
+    }
     Stage runStage;
     runStage.kernel = Kernel::TileNormals;
+    if (tileKeptSide != 0) runStage.runs = StageRuns::WithoutStencils;
     runStage.specialization = {3, positions.stride, normals.stride, false, false};
     runStage.written = &normals;
     for (const auto& [a, b] : chunks(runs.size() / 4, 16, "tile normal runs")) {

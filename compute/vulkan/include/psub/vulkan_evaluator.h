@@ -52,6 +52,13 @@ struct VulkanEvaluatorOptions {
     // The workgroup tile kernel's largest block side: 0 means 32 where the device's shared memory
     // holds that block's grids (t <= 3: 27.7 KiB), else 16; 16 or 32 ask for that side.
     std::uint32_t tileBlock = 0;
+    // The workgroup tile kernel also writes its tiles' inner points' normals, from the last fine
+    // grid it holds (the design's one pass), instead of the tile_normals.comp pass reading the
+    // positions back: where the normals split (normalsInTilePass), the last fine grid reaches a
+    // point past each block (t = 3), the vertices have 3 or 4 values and the grids fit the
+    // shared memory; elsewhere as without it. The same bits either way. Off by default until
+    // measured faster on a GPU (bench/README.md, "A run for a GPU").
+    bool fusedTileNormals = false;
 };
 
 // GPU-side time of the last frame, from timestamp queries (valid is false when the queue has
@@ -147,6 +154,8 @@ public:
     // (at most 16, or 32 where the device's shared memory holds it: VulkanEvaluatorOptions::
     // tileBlock), the unrolled kernel's 16; 0 without tiles.
     std::uint32_t tileBlockSide() const;
+    // The tile kernel writes the tiles' inner points' normals itself (fusedTileNormals, where it can).
+    bool normalsInTileKernel() const;
     // Dispatches in a frame's command buffer: stencils only, and with normals.
     std::size_t dispatchCount(bool withNormals = false) const;
     // Bytes of device buffers held (tables, levels, normals, staging).
