@@ -253,9 +253,8 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
         for (std::uint32_t s = 0; s + 1 < t; ++s) n = 2 * n - 9;
         reaches = std::uint32_t(r0) - 2 + M + 3 <= 2 * n - 9;  // the last fine grid's valid side
     }
-    const std::uint32_t kept = widest + 3;
-    if (reaches && 16 * (std::max(grid * grid, kept * kept) + (grid - 1) * (grid - 1) + (grid - 2) * (grid - 2)) <= sharedLimit)
-        tileKeptSide = kept;
+    const std::uint32_t kept = widest + 3, keptBytes = sharedBytes(grid) + 16 * (kept * kept - std::min(kept * kept, grid * grid));
+    if (reaches && keptBytes <= sharedLimit) tileKeptSide = kept;
     const auto blocksOf = [&](std::size_t k) {
         const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k)), perSide = (L + M - 1) / M;
         return perSide * perSide;
