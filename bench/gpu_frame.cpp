@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
         psub::VulkanContext context;
         psub::VulkanEvaluator evaluator(context, tiled, 3, options);
         std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
-        std::vector<double> gpu, positions, normals, uploads, wall;
+        std::vector<double> gpu, positions, normals, uploads, wall, hostWrite, hostWait;
         // Untimed frames first: a fifth of the timed ones, at least 3 (a GPU raises its clocks
         // under load; the shader compile and first-touch costs fall on the first).
         const int warmup = std::max(3, frames / 5);
@@ -86,6 +86,8 @@ int main(int argc, char** argv) {
             const psub::GpuFrameTimes times = evaluator.lastFrameTimes();
             if (frame < 0) continue;
             wall.push_back(ms);
+            const psub::HostFrameTimes host = evaluator.lastHostTimes();
+            hostWrite.push_back(host.uploadMs), hostWait.push_back(host.waitMs);
             if (times.valid)
                 gpu.push_back(times.totalMs), positions.push_back(times.levelsMs), normals.push_back(times.normalsMs),
                     uploads.push_back(times.uploadMs);
@@ -105,30 +107,36 @@ int main(int argc, char** argv) {
         const double vertices = tiled.refinedCount, faces = double(tiled.surface.faceOffsets.size() - 1);
         const double bytes = vertices * 4.0 * sizeof(float) * 2;  // positions and normals, 4 floats each
         const double gpuMs = median(gpu), reached = gpuMs > 0 ? bytes / (gpuMs * 1e6) : 0;
-        std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; "
-                    "%s kernel (blocks of %u%s); frame (evaluate + normals, kept on the device) GPU %.3f ms "
-                    "(positions %.3f of which the upload %.3f, normals %.3f), wall %.3f ms; it writes %.1f MB a "
-                    "frame: %.1f GB/s",
-                    context.deviceName().c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
-                    100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds, kernelName.c_str(),
-                    evaluator.tileBlockSide(), evaluator.normalsInTileKernel() ? ", normals in it" : "", gpuMs,
-                    median(positions), median(uploads), median(normals), median(wall), bytes / 1e6, reached);
+        const double gpuMin = gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end());
+        const std::string device = context.deviceName();
+        const unsigned block = evaluator.tileBlockSide();
+        const bool normalsInKernel = evaluator.normalsInTileKernel();
+        std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; ",
+                    device.c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
+                    100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds);
+        std::printf("%s kernel (blocks of %u%s); frame (evaluate + normals, kept on the device) GPU %.3f ms (positions "
+                    "%.3f of which the upload %.3f, normals %.3f), wall %.3f ms (writing the control points %.3f, "
+                    "submit to fence %.3f); it writes %.1f MB a frame: %.1f GB/s",
+                    kernelName.c_str(), block, normalsInKernel ? ", normals in it" : "", gpuMs, median(positions),
+                    median(uploads), median(normals), median(wall), median(hostWrite), median(hostWait), bytes / 1e6,
+                    reached);
         if (bandwidth > 0) std::printf(" (%.1f%% of %.0f GB/s)", 100 * reached / bandwidth, bandwidth);
         std::printf("; against the CPU's tiled evaluator: positions %.2g of the diagonal, normals %.2g%s", positionDiff,
                     normalDiff, agrees ? "" : " (FAILED: above 1e-6 and 1e-5)");
         std::printf("\n{\"device\": \"%s\", \"torus\": %d, \"levels\": %d, \"faces\": %.0f, \"vertices\": %.0f, "
-                    "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", \"tile_block\": %u, \"normals_in_tile_kernel\": %s, "
-                    "\"build_s\": %.3f, \"frames\": %d, \"timestamps\": %s, \"gpu_ms_median\": %.4f, "
-                    "\"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, \"upload_ms_median\": %.4f, \"normals_ms_median\": %.4f, "
-                    "\"wall_ms_median\": %.4f, \"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f, "
+                    "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", "
+                    "\"tile_block\": %u, \"normals_in_tile_kernel\": %s, \"build_s\": %.3f, \"frames\": %d, ",
+                    device.c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
+                    double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(), block,
+                    normalsInKernel ? "true" : "false", buildSeconds, frames);
+        std::printf("\"timestamps\": %s, \"gpu_ms_median\": %.4f, \"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, "
+                    "\"upload_ms_median\": %.4f, \"normals_ms_median\": %.4f, \"wall_ms_median\": %.4f, "
+                    "\"host_write_ms_median\": %.4f, \"host_wait_ms_median\": %.4f, ",
+                    gpu.empty() ? "false" : "true", gpuMs, gpuMin, median(positions), median(uploads), median(normals),
+                    median(wall), median(hostWrite), median(hostWait));
+        std::printf("\"bytes_written\": %.0f, \"reached_gbs\": %.2f, \"bandwidth_gbs\": %.2f, "
                     "\"position_difference\": %.3g, \"normal_difference\": %.3g, \"agrees\": %s}\n",
-                    context.deviceName().c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
-                    double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(),
-                    evaluator.tileBlockSide(), evaluator.normalsInTileKernel() ? "true" : "false", buildSeconds,
-                    frames, gpu.empty() ? "false" : "true", gpuMs, gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end()),
-                    median(positions), median(uploads), median(normals), median(wall), bytes, reached, bandwidth, positionDiff,
-                    normalDiff,
-                    agrees ? "true" : "false");
+                    bytes, reached, bandwidth, positionDiff, normalDiff, agrees ? "true" : "false");
         if (!agrees) return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "psub_gpu_frame: error: %s\n", e.what());
