@@ -46,10 +46,11 @@ def main():
              "normals in it: %s" % records)
     if [r.get("tile_block") for r in records[1:3]] != [16, 32]:
         fail("the workgroup kernel's records name blocks of 16 and 32: %s" % records)
-    # The quick torus is at t = 1, where the last fine grid has no spare points: the normals stay
-    # a pass of their own (NormalsInTheTileKernelAreTheCpuTilePassBits covers t = 3).
-    if any(r.get("normals_in_tile_kernel") is not False for r in records):
-        fail("normals in the tile kernel at t = 1: %s" % records)
+    # The normals in the tile kernel only where asked (with blocks of 32 at t = 1 lavapipe's shared
+    # memory is too small for them, so either answer is right for the last record).
+    if any(r.get("normals_in_tile_kernel") is not False for r in records[:3]) or \
+            not isinstance(records[3].get("normals_in_tile_kernel"), bool):
+        fail("normals in the tile kernel where not asked for: %s" % records)
     for r in records:
         for name, kind in FIELDS.items():
             if not isinstance(r.get(name), kind):

@@ -72,7 +72,8 @@ void fineStep(uint n, uint p0, uint side, const bool last) {
     }
 }
 
-// With normals (where the last fine grid reaches two points past the block on each side: t = 3):
+// With normals (the last fine grid reaching two points past the block on each side: at t = 3 as
+// it is, at t = 1 and 2 from the wider window of main()):
 // the last fine pass keeps the block's points and a ring around them in the grid (from lattice
 // point (-2, -2), an even start for the pass's cells; side M + 3), then writes each point its
 // tile owns and gives each such inner point the unit normal of its four quads, read from the
@@ -100,14 +101,22 @@ void main() {
     const uint block = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (block >= pc.rowCount) return;  // the whole workgroup: no barrier is skipped by some
     readBlock(block);
-    const uint t = pc.groupBase, halo = pc.groupCount;
+    const uint t = pc.groupBase;
+    // With normals where the window's last fine grid ends at the block's own points (t = 1, 2):
+    // one level-B cell more on each side, read clamped to the tile's gathered grid. A clamped
+    // cell changes only points before or past the block, which a block at the tile's edge needs
+    // for no normal (its ring points' normals are the listed passes').
+    const uint halo = pc.groupCount + (kNormals && (pc.groupCount << t) + 4u < (4u << t) + 2u ? 1u : 0u);
     const uint n0 = (blockM >> t) + 2u * halo + 1u;  // the block's window of the tile's gathered grid
     // The block's lattice point (0, 0) in the last fine grid (docs/tiled.md).
     const uint r0 = (halo << t) + 4u - (4u << t);
+    // The window's first cell in the tile's gathered grid (gatherFirst: its cell (X0, Y0) / 2^t).
+    const ivec2 cell0 = ivec2(blockX0 >> t, blockY0 >> t) - int(halo - pc.groupCount);
+    const uint tileFirst = gatherFirst - (blockY0 >> t) * gridSide - (blockX0 >> t);
     for (firstValue = 0u; firstValue < kComponents; firstValue += 4u) {
         for (uint i = gl_LocalInvocationIndex; i < n0 * n0; i += PSUB_WORKGROUP_SIZE) {
-            const uvec2 xy = cell(i, n0);
-            grid[i] = readValues(gatheredAt(gatherFirst + xy.y * gridSide + xy.x), firstValue);
+            const uvec2 at = uvec2(clamp(cell0 + ivec2(cell(i, n0)), 0, int(gridSide) - 1));
+            grid[i] = readValues(gatheredAt(tileFirst + at.y * gridSide + at.x), firstValue);
         }
         uint n = n0;
         for (uint s = 0u; s + 1u < t; ++s) {

@@ -141,7 +141,7 @@ struct VulkanEvaluator::Impl {
     std::uint32_t tileBlockSide = 0;  // the widest tile block (buildTiles)
     std::size_t tileStage = ~std::size_t(0);  // the tile kernel's stage in stencilStages (buildTiles)
     bool fusedTileNormals = false;  // option: the workgroup tile kernel writes the inner points' normals
-    std::uint32_t tileKeptSide = 0;  // where it can (buildTiles): its last fine grid's side
+    std::uint32_t tileKeptSide = 0, tileFusedGrid = 0;  // where it can (buildTiles): its kept and step grids' sides
     const SurfaceTable* drawnSurface = nullptr;  // the contract's drawing order (kept by reference)
     VkCommandBuffer deviceFrame = VK_NULL_HANDLE;  // submit(): re-recorded per call
     VkFence deviceFence = VK_NULL_HANDLE;          // submit(): signalled when its frame is done

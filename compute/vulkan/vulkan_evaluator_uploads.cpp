@@ -205,9 +205,10 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
         throw std::invalid_argument("VulkanEvaluator: the tile block side is 16 or 32, not " + std::to_string(blockLimit));
     if (table.tileCount() == 0) return;
     const std::uint32_t t = table.doubleSteps, halo = table.halo;
-    // The largest grid a block of side M keeps (its window, then each double step's but the last's).
-    const auto gridFor = [&](std::uint32_t M) {
-        std::uint32_t n = (M >> t) + 2 * halo + 1, largest = n;
+    // The largest grid a block of side M keeps (its window, then each double step's but the
+    // last's) with a halo of h level-B cells.
+    const auto gridFor = [&](std::uint32_t M, std::uint32_t h) {
+        std::uint32_t n = (M >> t) + 2 * h + 1, largest = n;
         for (std::uint32_t s = 0; s + 1 < t; ++s) largest = std::max(largest, n = 2 * n - 9);
         return largest;
     };
@@ -215,7 +216,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
     const std::uint32_t sharedLimit = context.properties.limits.maxComputeSharedMemorySize;
     std::uint32_t side = PSUB_TILE_BLOCK;
     if (!unrolled && blockLimit != PSUB_TILE_BLOCK &&
-        (blockLimit == PSUB_TILE_WIDE_BLOCK || sharedBytes(gridFor(PSUB_TILE_WIDE_BLOCK)) <= sharedLimit))
+        (blockLimit == PSUB_TILE_WIDE_BLOCK || sharedBytes(gridFor(PSUB_TILE_WIDE_BLOCK, halo)) <= sharedLimit))
         side = PSUB_TILE_WIDE_BLOCK;
     // Workgroup kernel: a tile of side L is cut into (L / M)^2 blocks, M the largest multiple of
     // 2^t dividing L and at most `side` (whole level-B cells, so a block's window is a part of
@@ -229,7 +230,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
     };
     std::uint32_t widest = 1u << t;  // the shared grids are sized for the widest block used
     for (std::size_t k = 0; k < table.tileCount(); ++k) widest = std::max(widest, blockSide(table.lattice(k)));
-    const std::uint32_t grid = gridFor(widest);
+    const std::uint32_t grid = gridFor(widest, halo);
     tileBlockSide = widest;
     // The unrolled kernel compiles in the halo of t, t + 1 (docs/tiled.md).
     if (t == 0 || t > 3 || grid > (widest <= PSUB_TILE_BLOCK ? PSUB_TILE_GRID : PSUB_TILE_WIDE_GRID) ||
@@ -242,19 +243,21 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
                                     std::to_string(sharedLimit));
     // The normals in the tile kernel (VulkanEvaluatorOptions::fusedTileNormals): its last fine
     // pass keeps lattice points -2 .. M of each side (tile.comp, emitWithNormals), so the last
-    // fine grid must reach two points before the block and two past it, r0 >= 2 (t = 3), and the
-    // shared memory hold that grid too; positions of 3 or 4 values in one binding window.
-    const int r0 = int(halo << t) + 4 - int(4u << t);
-    bool reaches = fusedTileNormals && !unrolled && (width == 3 || width == 4) && r0 >= 2 &&
-                   refinedBuffer().windows == 1;
+    // fine grid must reach two points before the block and past it: r0 >= 2 (t = 3), or at
+    // t = 1, 2 a halo one level-B cell wider (r0 = 2^t then); the shared memory must hold that
+    // grid and those of the steps; positions of 3 or 4 values in one binding window.
+    const auto firstPoint = [&](std::uint32_t h) { return int(h << t) + 4 - int(4u << t); };  // r0
+    const std::uint32_t fusedHalo = firstPoint(halo) >= 2 ? halo : halo + 1;
+    bool reaches = fusedTileNormals && !unrolled && (width == 3 || width == 4) && refinedBuffer().windows == 1;
     for (std::size_t k = 0; k < table.tileCount() && reaches; ++k) {
         const std::uint32_t M = blockSide(table.lattice(k));
-        std::uint32_t n = (M >> t) + 2 * halo + 1;
+        std::uint32_t n = (M >> t) + 2 * fusedHalo + 1;
         for (std::uint32_t s = 0; s + 1 < t; ++s) n = 2 * n - 9;
-        reaches = std::uint32_t(r0) - 2 + M + 3 <= 2 * n - 9;  // the last fine grid's valid side
+        reaches = std::uint32_t(firstPoint(fusedHalo)) - 2 + M + 3 <= 2 * n - 9;  // the last fine grid's valid side
     }
-    const std::uint32_t kept = widest + 3, keptBytes = sharedBytes(grid) + 16 * (kept * kept - std::min(kept * kept, grid * grid));
-    if (reaches && keptBytes <= sharedLimit) tileKeptSide = kept;
+    const std::uint32_t fusedGrid = gridFor(widest, fusedHalo), kept = widest + 3;
+    if (reaches && sharedBytes(fusedGrid) + 16 * (kept * kept - std::min(kept * kept, fusedGrid * fusedGrid)) <= sharedLimit)
+        tileKeptSide = kept, tileFusedGrid = fusedGrid;
     const auto blocksOf = [&](std::size_t k) {
         const std::uint64_t L = table.lattice(k), M = blockSide(table.lattice(k)), perSide = (L + M - 1) / M;
         return perSide * perSide;
@@ -484,6 +487,7 @@ bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buff
     if (tileKeptSide != 0 && tileStage < stencilStages.size()) {
         Stage fused = stencilStages[tileStage];
         fused.specialization.tileKeptSide = tileKeptSide;
+        fused.specialization.tileGrid = tileFusedGrid;
         fused.alsoWritten = &normals;
         fused.runs = StageRuns::WithNormals;
         for (Dispatch& d : fused.dispatches) d.secondDestination = &normals;

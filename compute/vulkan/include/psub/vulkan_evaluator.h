@@ -54,8 +54,8 @@ struct VulkanEvaluatorOptions {
     std::uint32_t tileBlock = 0;
     // The workgroup tile kernel also writes its tiles' inner points' normals, from the last fine
     // grid it holds (the design's one pass), instead of the tile_normals.comp pass reading the
-    // positions back: where the normals split (normalsInTilePass), the last fine grid reaches a
-    // point past each block (t = 3), the vertices have 3 or 4 values and the grids fit the
+    // positions back (at t = 1 and 2 from a block window one level-B cell wider): where the
+    // normals split (normalsInTilePass), the vertices have 3 or 4 values and the grids fit the
     // shared memory; elsewhere as without it. The same bits either way. Off by default until
     // measured faster on a GPU (bench/README.md, "A run for a GPU").
     bool fusedTileNormals = false;
