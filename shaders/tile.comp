@@ -1,10 +1,10 @@
 #version 450
 // shaders/tile.comp: the tiled form's regular tiles (docs/tiled.md). One workgroup computes one
-// block of at most PSUB_TILE_BLOCK x PSUB_TILE_BLOCK lattice points of a tile: it gathers the
-// level-B window the block needs into workgroup-shared memory, runs the 2t P-S steps there with
-// the regular masks (the intermediate levels never leave the workgroup), and writes the block's
-// points that its tile owns straight to the finest level. Same arithmetic, in the same order,
-// as the CPU kernel (compute/tiled_kernels.cpp), marked precise.
+// block of at most 16 x 16 or 32 x 32 lattice intervals of a tile: it gathers the level-B window
+// the block needs into workgroup-shared memory, runs the 2t P-S steps there with the regular
+// masks (the intermediate levels never leave the workgroup), and writes the block's points that
+// its tile owns straight to the finest level, and optionally their normals too. Same arithmetic,
+// in the same order, as the CPU kernel (compute/tiled_kernels.cpp), marked precise.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
@@ -72,13 +72,13 @@ void fineStep(uint n, uint p0, uint side, const bool last) {
     }
 }
 
-// With normals (the last fine grid reaching two points past the block on each side: at t = 3 as
-// it is, at t = 1 and 2 from the wider window of main()):
-// the last fine pass keeps the block's points and a ring around them in the grid (from lattice
-// point (-2, -2), an even start for the pass's cells; side M + 3), then writes each point its
-// tile owns and gives each such inner point the unit normal of its four quads, read from the
-// 3 x 3 points around it, to the destination's second binding (the normals; the positions then
-// fit in the first). The tile_normals.comp pass's sums in its order: the same bits.
+// With normals: the last fine pass keeps the block's points and a ring of two more in the grid
+// (from lattice point (-2, -2), an even start for the pass's cells; side M + 3; the last fine
+// grid reaches that far at t = 3 as it is, at t = 1 and 2 from main()'s wider window), then this
+// writes each point its tile owns and gives each such inner point the unit normal of its four
+// quads, read from the 3 x 3 points around it, to the destination's second binding (the
+// normals; the positions then fit in the first). tile_normals.comp's sums in its order: the
+// same bits.
 void emitWithNormals(uint side) {
     const uint points = blockM + 1u;
     for (uint k = gl_LocalInvocationIndex; k < points * points; k += PSUB_WORKGROUP_SIZE) {
