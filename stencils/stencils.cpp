@@ -181,6 +181,9 @@ struct StepRows {
 }  // namespace
 
 // Appends one step's rows to `table`, grouped by (kind, n, m), each group in destination order.
+// The child vertices are cut into runs, one per thread: each run finds its rows' shapes and
+// counts them per group; the counts give each run its place in every group, where it then
+// writes its rows. The table is the same whatever the number of runs.
 void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity& connectivity, bool paired,
                     bool splitBoundary, std::span<const std::uint8_t> seamFaces, Rules rules,
                     std::span<const char> inputCorners, std::span<const std::uint8_t> keep) {
@@ -188,59 +191,84 @@ void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity
     const std::uint32_t childCount = step.childCount();
     if (!keep.empty() && keep.size() != childCount) throw std::invalid_argument("appendStepRows: keep has the wrong size");
     const auto made = [&](std::uint32_t d) { return keep.empty() || keep[d] != 0; };
+    constexpr std::uint32_t kRowsPerRun = 32768;
+    const int runs = int(std::clamp<std::uint32_t>(childCount / kRowsPerRun, 1, std::uint32_t(omp_get_max_threads())));
+    const auto runBegin = [&](int r) { return std::uint32_t(std::uint64_t(childCount) * std::uint32_t(r) / std::uint32_t(runs)); };
+    struct Run {
+        std::map<GroupKey, std::uint32_t> firstMet;  // the run's groups, numbered as first met
+        std::vector<std::uint64_t> rows;             // per group of the run: its rows there
+        std::vector<std::size_t> group;              // per group of the run: its index in table.groups
+        std::vector<std::uint64_t> next;             // per group of the run: the next row it writes
+    };
+    std::vector<Run> run(std::size_t(runs), Run{});
+    std::vector<std::uint32_t> groupOfRow(childCount);  // the group's number in its run
 
-    // Pass 1: the shape of every row; groups numbered as first met, with a one-entry cache
-    // since neighbouring rows mostly share a shape.
-    std::map<GroupKey, std::uint32_t> firstMet;
-    std::vector<GroupKey> keys;
-    std::vector<std::uint32_t> groupOfRow(childCount);
-    std::vector<std::uint64_t> rowsOfGroup;
-    GroupKey lastKey{RowKind::Retained, ~0u, ~0u};
-    std::uint32_t lastGroup = 0;
-    for (std::uint32_t d = 0; d < childCount; ++d) {
-        if (!made(d)) continue;
-        const GroupKey key = step.shape(d);
-        if (key != lastKey) {
-            auto [it, inserted] = firstMet.try_emplace(key, std::uint32_t(keys.size()));
-            if (inserted) {
-                keys.push_back(key);
-                rowsOfGroup.push_back(0);
+    // Pass 1: the shape of every row, with a one-entry cache since neighbouring rows mostly
+    // share a shape.
+#pragma omp parallel for num_threads(runs) schedule(static, 1)
+    for (int r = 0; r < runs; ++r) {
+        Run& mine = run[std::size_t(r)];
+        GroupKey lastKey{RowKind::Retained, ~0u, ~0u};
+        std::uint32_t lastGroup = 0;
+        for (std::uint32_t d = runBegin(r), end = runBegin(r + 1); d < end; ++d) {
+            if (!made(d)) continue;
+            const GroupKey key = step.shape(d);
+            if (key != lastKey) {
+                const auto [it, inserted] = mine.firstMet.try_emplace(key, std::uint32_t(mine.rows.size()));
+                if (inserted) mine.rows.push_back(0);
+                lastKey = key;
+                lastGroup = it->second;
             }
-            lastKey = key;
-            lastGroup = it->second;
+            groupOfRow[d] = lastGroup;
+            ++mine.rows[lastGroup];
         }
-        groupOfRow[d] = lastGroup;
-        ++rowsOfGroup[lastGroup];
     }
 
-    // Groups in (kind, n, m) order, laid out after what the table holds.
+    // Groups in (kind, n, m) order, laid out after what the table holds; in each group the
+    // runs' rows follow one another in run order.
+    std::map<GroupKey, std::uint64_t> rowsOfKey;
+    for (const Run& r : run)
+        for (const auto& [key, group] : r.firstMet) rowsOfKey[key] += r.rows[group];
     StencilLevel level{step.oldVertices(), childCount, table.groups.size(), 0, table.destinations.size(), 0};
-    std::vector<std::uint32_t> position(keys.size());  // group number -> index in table.groups
+    std::map<GroupKey, std::size_t> groupOfKey;
     std::uint64_t rowBegin = table.destinations.size(), indexBegin = table.indices.size();
-    for (const auto& [key, group] : firstMet) {
+    for (const auto& [key, count] : rowsOfKey) {
         RowGroup g = makeGroup(std::get<0>(key), std::get<1>(key), std::get<2>(key), rules);
         g.rowBegin = rowBegin;
-        g.rowCount = rowsOfGroup[group];
+        g.rowCount = count;
         g.indexBegin = indexBegin;
         rowBegin += g.rowCount;
         indexBegin += g.rowCount * g.width;
-        position[group] = std::uint32_t(table.groups.size());
+        groupOfKey[key] = table.groups.size();
         table.groups.push_back(g);
     }
     level.groupEnd = table.groups.size();
     level.rowEnd = rowBegin;
+    std::map<GroupKey, std::uint64_t> placed;  // per group: the rows of earlier runs
+    for (Run& r : run) {
+        r.group.resize(r.rows.size());
+        r.next.resize(r.rows.size());
+        for (const auto& [key, group] : r.firstMet) {
+            r.group[group] = groupOfKey[key];
+            r.next[group] = table.groups[r.group[group]].rowBegin + placed[key];
+            placed[key] += r.rows[group];
+        }
+    }
 
     // Pass 2: every row's destination and sources, written in place.
     table.destinations.resize(rowBegin);
     table.indices.resize(indexBegin);
-    std::vector<std::uint64_t> filled(keys.size(), 0);
-    for (std::uint32_t d = 0; d < childCount; ++d) {
-        if (!made(d)) continue;
-        const std::uint32_t group = groupOfRow[d];
-        const RowGroup& g = table.groups[position[group]];
-        const std::uint64_t r = filled[group]++;
-        table.destinations[g.rowBegin + r] = d;
-        step.sources(d, &table.indices[g.indexBegin + r * g.width]);
+#pragma omp parallel for num_threads(runs) schedule(static, 1)
+    for (int r = 0; r < runs; ++r) {
+        Run& mine = run[std::size_t(r)];
+        for (std::uint32_t d = runBegin(r), end = runBegin(r + 1); d < end; ++d) {
+            if (!made(d)) continue;
+            const std::uint32_t group = groupOfRow[d];
+            const RowGroup& g = table.groups[mine.group[group]];
+            const std::uint64_t row = mine.next[group]++;
+            table.destinations[row] = d;
+            step.sources(d, &table.indices[g.indexBegin + (row - g.rowBegin) * g.width]);
+        }
     }
     table.levels.push_back(level);
 }
@@ -250,6 +278,26 @@ namespace {
 void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool splitBoundary, Rules rules,
                  std::span<const char> inputCorners) {
     appendStepRows(table, parent.faces, parent.connectivity, paired, splitBoundary, {}, rules, inputCorners);
+}
+
+// Room for all `steps` steps' rows from the input's counts, so that the table's arrays are
+// allocated once instead of growing (and being copied) at every level. A row's sources are
+// its centre, its edge neighbours and its diagonals (1 + 2 valence at most, summing to at most
+// V + 4E), a face point's corners (2E in all), a boundary row's two or three; a hint only: an
+// estimate that falls short just lets the arrays grow.
+void reserveRows(PerLevelTable& table, Counts parent, int steps, Boundary boundary, bool preprocessed) {
+    std::uint64_t rows = 0, indices = 0;
+    for (int k = 1; k <= steps; ++k) {
+        const Counts child = countsAfterStep(parent, splitsBoundary(boundary, k - (preprocessed ? 1 : 0)));
+        rows += child.vertices;
+        indices += parent.vertices + 6 * parent.edges + 3 * parent.boundaryEdges;
+        parent = child;
+    }
+    try {
+        table.destinations.reserve(table.destinations.size() + rows);
+        table.indices.reserve(table.indices.size() + indices);
+    } catch (const std::exception&) {  // too large to reserve: the steps will say so, or fit as they grow
+    }
 }
 
 }  // namespace
@@ -451,6 +499,8 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         uvCorners = inputCorners(uvLevel.faces, uvLevel.connectivity, options.rules);
         out.uvMs += ms(start);
     }
+    if (options.perLevel)
+        reserveRows(out.perLevel, countMesh(mesh.faces, connectivity), steps, options.boundary, out.preprocessed);
     for (int k = 1; k <= steps; ++k) {
         auto start = Clock::now();
         const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));

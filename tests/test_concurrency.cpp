@@ -7,7 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <cmath>
+#include <tuple>
 #include <thread>
 
 namespace psub {
@@ -80,6 +83,40 @@ TEST(Concurrency, RefiningInSeveralThreadsAtOnceGivesIdenticalTables) {
         EXPECT_EQ(r.perLevel.destinations, results[0].perLevel.destinations);
         EXPECT_EQ(r.factorized.indices, results[0].factorized.indices);
         EXPECT_EQ(r.factorized.weights, results[0].factorized.weights);
+    }
+}
+
+// Each step's rows are found and written by runs of child vertices, one run per OpenMP thread
+// (at least 32,768 rows a run): the table must not depend on how many runs there were. The
+// cow at 5 steps has 278,592 rows in its last step, so 1, 2, 3 and 8 threads cut it into 1,
+// 2, 3 and 8 runs. With a boundary (the split rule) and the face-varying channel too.
+TEST(Concurrency, TheTableIsTheSameWhateverTheBuildsThreadCount) {
+    const auto cow = test::load(test::dataPath("cow.obj"));
+    const auto spot = test::load(test::dataPath("spot_control_mesh_uv.obj"));
+    const int before = omp_get_max_threads();
+    for (const auto* model : {&cow, &spot}) {
+        for (const Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
+            RefineOptions options{5, Preprocess::Auto, false, {}};
+            options.boundary = boundary;
+            std::vector<Refinement> results;
+            for (const int threads : {1, 2, 3, 8}) {
+                omp_set_num_threads(threads);
+                results.push_back(refine(model->mesh, model->checked.connectivity, options));
+            }
+            omp_set_num_threads(before);
+            for (const Refinement& r : results) {
+                EXPECT_EQ(r.perLevel.indices, results[0].perLevel.indices);
+                EXPECT_EQ(r.perLevel.destinations, results[0].perLevel.destinations);
+                ASSERT_EQ(r.perLevel.groups.size(), results[0].perLevel.groups.size());
+                for (std::size_t g = 0; g < r.perLevel.groups.size(); ++g) {
+                    const RowGroup &a = r.perLevel.groups[g], &b = results[0].perLevel.groups[g];
+                    EXPECT_EQ(std::tie(a.kind, a.n, a.m, a.rowBegin, a.rowCount, a.indexBegin),
+                              std::tie(b.kind, b.n, b.m, b.rowBegin, b.rowCount, b.indexBegin));
+                }
+                EXPECT_EQ(r.uv.perLevel.indices, results[0].uv.perLevel.indices);
+                EXPECT_EQ(r.uv.perLevel.destinations, results[0].uv.perLevel.destinations);
+            }
+        }
     }
 }
 
