@@ -2,10 +2,11 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run.
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|pair]
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|pair]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
 // "build", only the builds, ROUNDS times each in one process with psub's allocator settings
-// (the per-level table with its surface; the tiled form's lean build), for perf; with "pair",
+// (the per-level table with its surface; the tiled form's lean build), for perf, and with
+// "build-per-level" only the first of them; with "pair",
 // the per-level rows of one mesh on 1 thread, of two copies side by side on 2 threads, and of
 // one mesh on 2 threads (what a second thread is worth to one mesh, and to two), then the
 // region-ordered copy of the table (orderLevelsByRegion) on 1 and 2 threads.
@@ -49,7 +50,7 @@ double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control
 
 int main(int argc, char** argv) {
     if (argc < 3) {
-        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|pair]\n");
+        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|pair]\n");
         return 2;
     }
     const std::string model = argv[1];
@@ -66,7 +67,8 @@ int main(int argc, char** argv) {
     }
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
-    if (argc > 5 && std::string(argv[5]) == "build") {
+    const std::string mode = argc > 5 ? argv[5] : "";
+    if (mode == "build" || mode == "build-per-level") {
         mallopt(M_MMAP_THRESHOLD, 32 << 20);  // as cli/main.cpp's tuneAllocator
         mallopt(M_TRIM_THRESHOLD, INT_MAX);
         for (int round = 0; round < rounds; ++round) {
@@ -74,8 +76,13 @@ int main(int argc, char** argv) {
             options.tiled = false;
             options.perLevel = true;
             psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
-            std::printf("per-level build: topology %.1f ms, rows and surface %.1f ms; ", r.topologyMs, r.perLevelMs);
+            std::printf("per-level build: topology %.1f ms, rows and surface %.1f ms", r.topologyMs, r.perLevelMs);
             r = {};
+            if (mode == "build-per-level") {
+                std::printf("\n");
+                continue;
+            }
+            std::printf("; ");
             options.tiled = true;
             options.perLevel = false;
             r = psub::refine(mesh, checked.connectivity, options);
@@ -97,7 +104,7 @@ int main(int argc, char** argv) {
     std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     std::vector<float> out(3 * std::size_t(tiled.refinedCount));
     const double bytes = 12.0 * tiled.refinedCount;
-    if (argc > 5 && std::string(argv[5]) == "pair") {
+    if (mode == "pair") {
         // Does a second thread help one mesh as much as it helps two? The per-level rows of one
         // mesh on 1 thread, of two copies side by side (one evaluator of 1 thread each, both
         // threads at once) and of one mesh on 2 threads, FRAMES frames of each in turn.
@@ -158,7 +165,7 @@ int main(int argc, char** argv) {
         }
         return 0;
     }
-    if (argc > 5 && std::string(argv[5]) == "profile") {
+    if (mode == "profile") {
         // The thread's CPU time per frame too: on a shared machine it counts only this work.
         psub::CpuEvaluator<float> tiledEvaluator(tiled, 3, 1);
         std::vector<double> cpu;
