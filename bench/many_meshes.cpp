@@ -3,8 +3,10 @@
 // meshes"): frame times, throughput in refined faces per ms, and the fixed cost per mesh per
 // frame. The small meshes run either one after another (each evaluator on all threads; small
 // meshes get one) or side by side (an outer loop over the meshes across the threads, each
-// evaluator on one); positions alone, and positions with normals.
-//   psub_many_meshes SMALL LEVELS BIG BIG_LEVELS [COUNT=50] [FRAMES=30] [FORM=tiled|per-level]
+// evaluator on one); positions alone, and positions with normals. The three are timed in turn,
+// ROUNDS times, so that a slow spell of the machine falls on all of them: each round gives the
+// ratios of its own times, and the medians and ranges over the rounds are printed.
+//   psub_many_meshes SMALL LEVELS BIG BIG_LEVELS [COUNT=50] [FRAMES=30] [FORM=tiled|per-level] [ROUNDS=5]
 //   (SMALL, BIG: an OBJ path or torus:N)
 #include "detail.h"
 #include "psub/evaluator.h"
@@ -82,7 +84,8 @@ double frameMs(int frames, Work&& frameWork) {
 
 int main(int argc, char** argv) {
     if (argc < 5) {
-        std::fprintf(stderr, "usage: psub_many_meshes SMALL LEVELS BIG BIG_LEVELS [COUNT] [FRAMES] [tiled|per-level]\n");
+        std::fprintf(stderr,
+                     "usage: psub_many_meshes SMALL LEVELS BIG BIG_LEVELS [COUNT] [FRAMES] [tiled|per-level] [ROUNDS]\n");
         return 2;
     }
     using psub::bench::parseArgument;
@@ -90,6 +93,7 @@ int main(int argc, char** argv) {
     const int count = argc > 5 ? int(parseArgument(argv[5], "COUNT", 1, 10000)) : 50;
     const int frames = argc > 6 ? int(parseArgument(argv[6], "FRAMES", 1, 1e6)) : 30;
     const bool tiled = !(argc > 7 && std::string(argv[7]) == "per-level");
+    const int rounds = argc > 8 ? int(parseArgument(argv[8], "ROUNDS", 1, 1000)) : 5;
     const int threads = omp_get_max_threads();
     Model small, big;
     try {
@@ -118,31 +122,49 @@ int main(int argc, char** argv) {
         const auto run = [&](psub::CpuEvaluator<float>& e, Buffers& b) {
             e.evaluate(b.control, b.refined, withNormals ? std::span<float>(b.normals) : std::span<float>());
         };
-        const double bigMs = frameMs(frames, [&](int f) {
-            move(bigBuffers, f);
-            run(*bigEvaluator, bigBuffers);
-        });
-        const double sequentialMs = frameMs(frames, [&](int f) {
-            for (int i = 0; i < count; ++i) {
-                move(buffers[std::size_t(i)], f);
-                run(*oneAfterAnother[std::size_t(i)], buffers[std::size_t(i)]);
-            }
-        });
-        const double parallelMs = frameMs(frames, [&](int f) {
+        // Per round: the three frame times; then each one's median and each ratio's.
+        std::vector<double> bigMs, sequentialMs, parallelMs;
+        for (int round = 0; round < rounds; ++round) {
+            bigMs.push_back(frameMs(frames, [&](int f) {
+                move(bigBuffers, f);
+                run(*bigEvaluator, bigBuffers);
+            }));
+            sequentialMs.push_back(frameMs(frames, [&](int f) {
+                for (int i = 0; i < count; ++i) {
+                    move(buffers[std::size_t(i)], f);
+                    run(*oneAfterAnother[std::size_t(i)], buffers[std::size_t(i)]);
+                }
+            }));
+            parallelMs.push_back(frameMs(frames, [&](int f) {
 #pragma omp parallel for schedule(dynamic, 1)
-            for (int i = 0; i < count; ++i) {
-                move(buffers[std::size_t(i)], f);
-                run(*sideBySide[std::size_t(i)], buffers[std::size_t(i)]);
+                for (int i = 0; i < count; ++i) {
+                    move(buffers[std::size_t(i)], f);
+                    run(*sideBySide[std::size_t(i)], buffers[std::size_t(i)]);
+                }
+            }));
+        }
+        const auto median = [](std::vector<double> v) {
+            std::sort(v.begin(), v.end());
+            return v[v.size() / 2];
+        };
+        const double manyFaces = double(small.faces) * count;
+        std::printf("%s (%d rounds; medians, and the range over the rounds in brackets):\n",
+                    withNormals ? "positions and normals" : "positions", rounds);
+        std::printf("  one mesh:               %8.3f ms, %7.0f faces/ms\n", median(bigMs), double(big.faces) / median(bigMs));
+        for (const auto* many : {&sequentialMs, &parallelMs}) {
+            // Throughput against one mesh's in the same round, and the fixed cost per mesh.
+            std::vector<double> share, fixedUs;
+            for (int round = 0; round < rounds; ++round) {
+                const double bigRate = double(big.faces) / bigMs[std::size_t(round)], ms = (*many)[std::size_t(round)];
+                share.push_back(100.0 * manyFaces / ms / bigRate);
+                fixedUs.push_back(1e3 * (ms - manyFaces / bigRate) / count);
             }
-        });
-        const double bigRate = double(big.faces) / bigMs, manyFaces = double(small.faces) * count;
-        std::printf("%s:\n", withNormals ? "positions and normals" : "positions");
-        std::printf("  one mesh:               %8.3f ms, %7.0f faces/ms\n", bigMs, bigRate);
-        for (const auto& [name, ms] : {std::pair{"one after another", sequentialMs}, std::pair{"side by side", parallelMs}})
-            std::printf("  %d meshes %-18s %8.3f ms, %7.0f faces/ms = %.0f%% of one mesh's; fixed cost %.1f us per "
-                        "mesh per frame\n",
-                        count, (std::string(name) + ":").c_str(), ms, manyFaces / ms, 100.0 * manyFaces / ms / bigRate,
-                        1e3 * (ms - manyFaces / bigRate) / count);
+            const auto [lowShare, highShare] = std::minmax_element(share.begin(), share.end());
+            std::printf("  %d meshes %-18s %8.3f ms, %7.0f faces/ms = %.0f%% of one mesh's (%.0f-%.0f%%); fixed cost "
+                        "%.1f us per mesh per frame\n",
+                        count, many == &sequentialMs ? "one after another:" : "side by side:", median(*many),
+                        manyFaces / median(*many), median(share), *lowShare, *highShare, median(fixedUs));
+        }
     }
     return 0;
 }
