@@ -2,11 +2,11 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run.
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|pair]
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
 // "build", only the builds, ROUNDS times each in one process with psub's allocator settings
 // (the per-level table with its surface; the tiled form's lean build), for perf, and with
-// "build-per-level" only the first of them; with "pair",
+// "build-per-level" or "build-lean" only one of them; with "pair",
 // the per-level rows of one mesh on 1 thread, of two copies side by side on 2 threads, and of
 // one mesh on 2 threads (what a second thread is worth to one mesh, and to two), then the
 // region-ordered copy of the table (orderLevelsByRegion) on 1 and 2 threads.
@@ -50,7 +50,7 @@ double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control
 
 int main(int argc, char** argv) {
     if (argc < 3) {
-        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|pair]\n");
+        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|build-lean|pair]\n");
         return 2;
     }
     const std::string model = argv[1];
@@ -68,25 +68,26 @@ int main(int argc, char** argv) {
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
     const std::string mode = argc > 5 ? argv[5] : "";
-    if (mode == "build" || mode == "build-per-level") {
+    if (mode == "build" || mode == "build-per-level" || mode == "build-lean") {
         mallopt(M_MMAP_THRESHOLD, 32 << 20);  // as cli/main.cpp's tuneAllocator
         mallopt(M_TRIM_THRESHOLD, INT_MAX);
         for (int round = 0; round < rounds; ++round) {
             // One at a time: each build's memory is free again for the next.
-            options.tiled = false;
-            options.perLevel = true;
-            psub::Refinement r = psub::refine(mesh, checked.connectivity, options);
-            std::printf("per-level build: topology %.1f ms, rows and surface %.1f ms", r.topologyMs, r.perLevelMs);
-            r = {};
-            if (mode == "build-per-level") {
-                std::printf("\n");
-                continue;
+            psub::Refinement r;
+            if (mode != "build-lean") {
+                options.tiled = false;
+                options.perLevel = true;
+                r = psub::refine(mesh, checked.connectivity, options);
+                std::printf("per-level build: topology %.1f ms, rows and surface %.1f ms%s", r.topologyMs, r.perLevelMs,
+                            mode == "build" ? "; " : "\n");
+                r = {};
             }
-            std::printf("; ");
-            options.tiled = true;
-            options.perLevel = false;
-            r = psub::refine(mesh, checked.connectivity, options);
-            std::printf("lean tiled build: topology %.1f ms, tiled table %.1f ms\n", r.topologyMs, r.tiledMs);
+            if (mode != "build-per-level") {
+                options.tiled = true;
+                options.perLevel = false;
+                r = psub::refine(mesh, checked.connectivity, options);
+                std::printf("lean tiled build: topology %.1f ms, tiled table %.1f ms\n", r.topologyMs, r.tiledMs);
+            }
         }
         return 0;
     }
