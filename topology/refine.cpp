@@ -52,26 +52,28 @@ BoundaryNeighbours boundaryNeighbours(const Faces& faces, const Connectivity& c,
 }
 
 Faces refineFaces(const Faces& faces, const Connectivity& c, bool splitBoundary) {
-    const Index oldVertices = faces.vertexCount;
+    const Index oldVertices = faces.vertexCount, boundary = c.boundaryEdgeCount;
     Faces child;
-    child.vertexCount = oldVertices + faces.faceCount() + (splitBoundary ? c.boundaryEdgeCount : 0);
-    child.offsets.reserve(std::size_t(c.edgeCount()) + 1);
-    child.verts.reserve(std::size_t(c.edgeCount()) * 4);
+    child.vertexCount = oldVertices + faces.faceCount() + (splitBoundary ? boundary : 0);
+    child.offsets.reserve(std::size_t(c.edgeCount()) + (splitBoundary ? boundary : 0) + 1);
+    child.verts.reserve(4 * std::size_t(c.edgeCount() - boundary) + (splitBoundary ? 6 : 3) * std::size_t(boundary));
+    // Corners appended one by one (Faces::addFace's range insert costs a call per face).
+    const auto add = [&child](std::initializer_list<Index> corners) {
+        for (Index v : corners) child.verts.push_back(v);
+        child.offsets.push_back(Index(child.verts.size()));
+    };
     Index edgePoint = oldVertices + faces.faceCount();
     for (Index h : c.edgeHalfedge) {
         const Index a = faces.verts[h], b = faces.verts[c.next[h]];
         const Index ff = oldVertices + c.faceOf[h];
         if (c.twin[h] == kNoIndex && splitBoundary) {
-            const Index first[3] = {a, edgePoint, ff}, second[3] = {edgePoint, b, ff};
-            child.addFace(first);
-            child.addFace(second);
+            add({a, edgePoint, ff});
+            add({edgePoint, b, ff});
             ++edgePoint;
         } else if (c.twin[h] == kNoIndex) {
-            const Index triangle[3] = {a, b, ff};
-            child.addFace(triangle);
+            add({a, b, ff});
         } else {
-            const Index quad[4] = {a, oldVertices + c.faceOf[c.twin[h]], b, ff};
-            child.addFace(quad);
+            add({a, oldVertices + c.faceOf[c.twin[h]], b, ff});
         }
     }
     return child;
