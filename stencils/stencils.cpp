@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <map>
 #include <stdexcept>
 #include <tuple>
@@ -204,25 +205,32 @@ void appendStepRows(PerLevelTable& table, const Faces& faces, const Connectivity
     std::vector<std::uint32_t> groupOfRow(childCount);  // the group's number in its run
 
     // Pass 1: the shape of every row, with a one-entry cache since neighbouring rows mostly
-    // share a shape.
+    // share a shape. (A failed allocation here leaves the threads as an exception, not a crash.)
+    std::exception_ptr failure;
 #pragma omp parallel for num_threads(runs) schedule(static, 1)
     for (int r = 0; r < runs; ++r) {
-        Run& mine = run[std::size_t(r)];
-        GroupKey lastKey{RowKind::Retained, ~0u, ~0u};
-        std::uint32_t lastGroup = 0;
-        for (std::uint32_t d = runBegin(r), end = runBegin(r + 1); d < end; ++d) {
-            if (!made(d)) continue;
-            const GroupKey key = step.shape(d);
-            if (key != lastKey) {
-                const auto [it, inserted] = mine.firstMet.try_emplace(key, std::uint32_t(mine.rows.size()));
-                if (inserted) mine.rows.push_back(0);
-                lastKey = key;
-                lastGroup = it->second;
+        try {
+            Run& mine = run[std::size_t(r)];
+            GroupKey lastKey{RowKind::Retained, ~0u, ~0u};
+            std::uint32_t lastGroup = 0;
+            for (std::uint32_t d = runBegin(r), end = runBegin(r + 1); d < end; ++d) {
+                if (!made(d)) continue;
+                const GroupKey key = step.shape(d);
+                if (key != lastKey) {
+                    const auto [it, inserted] = mine.firstMet.try_emplace(key, std::uint32_t(mine.rows.size()));
+                    if (inserted) mine.rows.push_back(0);
+                    lastKey = key;
+                    lastGroup = it->second;
+                }
+                groupOfRow[d] = lastGroup;
+                ++mine.rows[lastGroup];
             }
-            groupOfRow[d] = lastGroup;
-            ++mine.rows[lastGroup];
+        } catch (...) {
+#pragma omp critical(psub_step_rows)
+            failure = std::current_exception();
         }
     }
+    if (failure) std::rethrow_exception(failure);
 
     // Groups in (kind, n, m) order, laid out after what the table holds; in each group the
     // runs' rows follow one another in run order.
