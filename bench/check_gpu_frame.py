@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 FIELDS = {"device": str, "torus": int, "levels": int, "faces": (int, float), "vertices": (int, float),
-          "double_steps": int, "tiles": int, "tile_block": int, "tiled_share": float, "tile_kernel": str, "frames": int,
+          "double_steps": int, "tiles": int, "tile_block": int, "tile_threads": int, "controls_in_place": bool, "tiled_share": float, "tile_kernel": str, "frames": int,
           "timestamps": bool, "gpu_ms_median": (int, float), "positions_ms_median": (int, float),
           "normals_ms_median": (int, float), "upload_ms_median": (int, float), "wall_ms_median": (int, float),
           "host_write_ms_median": (int, float), "host_wait_ms_median": (int, float), "reached_gbs": (int, float)}
@@ -41,16 +41,19 @@ def main():
         fail("run quick: " + run.stdout + run.stderr)
     with open(os.path.join(workdir, "out", "gpu.jsonl")) as f:
         records = [json.loads(line) for line in f if line.strip()]
-    if [r.get("tile_kernel") for r in records] != ["auto", "workgroup16", "workgroup32", "workgroup+normals"]:
-        fail("expected the auto kernel's record, then the workgroup kernel's with each block side and with the "
-             "normals in it: %s" % records)
-    if [r.get("tile_block") for r in records[1:3]] != [16, 32]:
-        fail("the workgroup kernel's records name blocks of 16 and 32: %s" % records)
-    # The normals in the tile kernel only where asked (with blocks of 32 at t = 1 lavapipe's shared
-    # memory is too small for them, so either answer is right for the last record).
-    if any(r.get("normals_in_tile_kernel") is not False for r in records[:3]) or \
-            not isinstance(records[3].get("normals_in_tile_kernel"), bool):
-        fail("normals in the tile kernel where not asked for: %s" % records)
+    if [r.get("tile_kernel") for r in records] != ["auto", "workgroup16+separate", "workgroup32+separate",
+                                                    "workgroup16x64+staged"]:
+        fail("expected the auto kernel's record, then the workgroup kernel's with each block side and the separate "
+             "normal pass, then blocks of 16 with 64 invocations and staged control points: %s" % records)
+    if [r.get("tile_block") for r in records[1:]] != [16, 32, 16] or records[3].get("tile_threads") != 64:
+        fail("the workgroup kernel's records name blocks of 16, 32 and 16, the last with 64 invocations: %s" % records)
+    # Lavapipe's own kernel (the unrolled one) writes no normals; the separate pass where asked;
+    # the tile kernel's blocks of 16 on lavapipe (its shared memory holds their kept grid) by default.
+    if [r.get("normals_in_tile_kernel") for r in records] != [False, False, False, True]:
+        fail("the normals in the tile kernel only where by default on the workgroup kernel: %s" % records)
+    # Lavapipe shares the host's memory: control points in place unless staged.
+    if [r.get("controls_in_place") for r in records] != [True, True, True, False]:
+        fail("control points in place except where staged: %s" % records)
     for r in records:
         for name, kind in FIELDS.items():
             if not isinstance(r.get(name), kind):

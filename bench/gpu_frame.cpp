@@ -8,11 +8,14 @@
 // BANDWIDTH_GBS (the device's copy bandwidth measured in the same run) also its fraction. One
 // frame is then read back and compared with the CPU's tiled evaluator (exit 1 beyond the
 // contract's tolerances): the GPU run checks the results on the GPU too.
-//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [auto|workgroup|workgroup16|workgroup32|unrolled[+normals]]
-//                  [BANDWIDTH_GBS]
-// (workgroup16 and workgroup32: the workgroup kernel with blocks of at most that side; plain
-// workgroup and auto let the device's shared memory choose; +normals: the tile kernel writes the
-// inner points' normals itself where it can, VulkanEvaluatorOptions::fusedTileNormals.)
+//   psub_gpu_frame [N=512] [LEVELS=6] [FRAMES=50] [KERNEL=auto] [BANDWIDTH_GBS]
+// KERNEL: auto, unrolled, or workgroup[16|32][xTHREADS] (the workgroup kernel with blocks of at
+// most that side, plain workgroup and auto letting the device's shared memory choose; THREADS
+// 64 to 1024 invocations a workgroup, VulkanEvaluatorOptions::tileThreads, else the default for
+// the block side), then any of +normals or +separate (the tile kernel writes the inner points'
+// normals itself where it can, fusedTileNormals, the default; or the separate pass does) and
+// +staged (the control points through a staging copy, Staging::Always, where a discrete device
+// would write them in place).
 // Prints one line of text and one JSON object (the last line).
 #include "bench.h"
 #include "detail.h"
@@ -25,6 +28,8 @@
 #include <chrono>
 #include <cstdio>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -42,21 +47,35 @@ int main(int argc, char** argv) {
     const int levels = argc > 2 ? int(parseArgument(argv[2], "LEVELS", 1, 12)) : 6;
     const int frames = argc > 3 ? int(parseArgument(argv[3], "FRAMES", 1, 100000)) : 50;
     const std::string kernelName = argc > 4 ? argv[4] : "auto";
-    // KERNEL+normals: the workgroup kernel writing the inner points' normals itself.
-    const std::string suffix = "+normals";
-    const bool fused = kernelName.size() > suffix.size() && kernelName.ends_with(suffix);
-    const std::string kernel = fused ? kernelName.substr(0, kernelName.size() - suffix.size()) : kernelName;
     const double bandwidth = argc > 5 ? parseArgument(argv[5], "BANDWIDTH_GBS", 0, 1e6, false) : 0;
     psub::VulkanEvaluatorOptions options;
-    options.fusedTileNormals = fused;
+    std::string kernel = kernelName.substr(0, kernelName.find('+'));
+    bool known = true;
+    for (std::size_t at = kernel.size(); at < kernelName.size();) {
+        const std::size_t next = std::min(kernelName.find('+', at + 1), kernelName.size());
+        const std::string flag = kernelName.substr(at + 1, next - at - 1);
+        if (flag == "normals") options.fusedTileNormals = true;
+        else if (flag == "separate") options.fusedTileNormals = false;
+        else if (flag == "staged") options.staging = psub::Staging::Always;
+        else known = false;
+        at = next;
+    }
+    for (const auto& [suffix, threads] : {std::pair{"x64", 64u}, std::pair{"x128", 128u}, std::pair{"x256", 256u},
+                                     std::pair{"x512", 512u}, std::pair{"x1024", 1024u}})
+        if (kernel.ends_with(suffix)) {
+            options.tileThreads = threads;
+            kernel = kernel.substr(0, kernel.size() - std::string_view(suffix).size());
+        }
     if (kernel.starts_with("workgroup")) options.tileKernel = psub::TileKernel::Workgroup;
     if (kernel == "workgroup16") options.tileBlock = 16;
     else if (kernel == "workgroup32") options.tileBlock = 32;
     else if (kernel == "unrolled") options.tileKernel = psub::TileKernel::Unrolled;
-    else if (kernel != "auto" && kernel != "workgroup") {
+    if (!known || (kernel != "auto" && kernel != "unrolled" && !kernel.starts_with("workgroup")) ||
+        (kernel.starts_with("workgroup") && kernel != "workgroup" && options.tileBlock == 0) ||
+        (options.tileThreads && !kernel.starts_with("workgroup"))) {
         std::fprintf(stderr,
-                     "psub_gpu_frame: the tile kernel is auto, workgroup, workgroup16, workgroup32 or unrolled, each "
-                     "with +normals or not, not %s\n",
+                     "psub_gpu_frame: the tile kernel is auto, unrolled or workgroup[16|32][x64|x128|x256|x512|x1024], then "
+                     "+normals or +separate, +staged, not %s\n",
                      kernelName.c_str());
         return 2;
     }
@@ -110,14 +129,16 @@ int main(int argc, char** argv) {
         const double gpuMin = gpu.empty() ? 0 : *std::min_element(gpu.begin(), gpu.end());
         const std::string device = context.deviceName();
         const unsigned block = evaluator.tileBlockSide();
-        const bool normalsInKernel = evaluator.normalsInTileKernel();
+        const bool normalsInKernel = evaluator.normalsInTileKernel(), inPlace = evaluator.controlsWrittenInPlace();
+        const unsigned threads = evaluator.tileThreads();
         std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; ",
                     device.c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
                     100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds);
-        std::printf("%s kernel (blocks of %u%s); frame (evaluate + normals, kept on the device) GPU %.3f ms (positions "
-                    "%.3f of which the upload %.3f, normals %.3f), wall %.3f ms (writing the control points %.3f, "
+        std::printf("%s kernel (blocks of %u, %u invocations a block%s); control points %s; frame (evaluate + normals, kept on "
+                    "the device) GPU %.3f ms (positions %.3f of which the upload %.3f, normals %.3f), wall %.3f ms (writing the control points %.3f, "
                     "submit to fence %.3f); it writes %.1f MB a frame: %.1f GB/s",
-                    kernelName.c_str(), block, normalsInKernel ? ", normals in it" : "", gpuMs, median(positions),
+                    kernelName.c_str(), block, threads, normalsInKernel ? ", normals in it" : "",
+                    inPlace ? "written in place" : "through a staging copy", gpuMs, median(positions),
                     median(uploads), median(normals), median(wall), median(hostWrite), median(hostWait), bytes / 1e6,
                     reached);
         if (bandwidth > 0) std::printf(" (%.1f%% of %.0f GB/s)", 100 * reached / bandwidth, bandwidth);
@@ -125,10 +146,11 @@ int main(int argc, char** argv) {
                     normalDiff, agrees ? "" : " (FAILED: above 1e-6 and 1e-5)");
         std::printf("\n{\"device\": \"%s\", \"torus\": %d, \"levels\": %d, \"faces\": %.0f, \"vertices\": %.0f, "
                     "\"double_steps\": %u, \"tiles\": %zu, \"tiled_share\": %.4f, \"tile_kernel\": \"%s\", "
-                    "\"tile_block\": %u, \"normals_in_tile_kernel\": %s, \"build_s\": %.3f, \"frames\": %d, ",
+                    "\"tile_block\": %u, \"tile_threads\": %u, \"normals_in_tile_kernel\": %s, "
+                    "\"controls_in_place\": %s, \"build_s\": %.3f, \"frames\": %d, ",
                     device.c_str(), n, levels, faces, vertices, tiled.doubleSteps, tiled.tileCount(),
                     double(tiled.fallbackBegin) / std::max(1u, tiled.refinedCount), kernelName.c_str(), block,
-                    normalsInKernel ? "true" : "false", buildSeconds, frames);
+                    threads, normalsInKernel ? "true" : "false", inPlace ? "true" : "false", buildSeconds, frames);
         std::printf("\"timestamps\": %s, \"gpu_ms_median\": %.4f, \"gpu_ms_min\": %.4f, \"positions_ms_median\": %.4f, "
                     "\"upload_ms_median\": %.4f, \"normals_ms_median\": %.4f, \"wall_ms_median\": %.4f, "
                     "\"host_write_ms_median\": %.4f, \"host_wait_ms_median\": %.4f, ",

@@ -4,14 +4,17 @@
 #       here, after building: copies psub_gpu_frame and the shared libraries it loads (all but
 #       the C library's own) into .gpu/ at the repository's root, which git ignores
 #       ($PSUB_GPU_DIR instead of .gpu/ where set: the smoke test's).
-#   bench/gpu_run.sh run [quick]
+#   bench/gpu_run.sh run [quick] [KERNEL...]
 #       on the GPU's machine, from the repository's root, with .gpu/ carried there: the device's
 #       copy bandwidth (a device-to-device copy through PyTorch, where python3 has it), then
 #       psub_gpu_frame on the torus at 1M, 4.2M and 16.8M faces (the tile kernel the device
-#       gets, then at 16.8M the workgroup kernel with blocks of 16, and with the normals in the
-#       tile kernel at either block side), with nvidia-smi's clocks sampled meanwhile. `quick`:
-#       one small torus, for trying the script on lavapipe (its kernel, then the workgroup
-#       kernel with each block side and with the normals in it). Results: $OUT/gpu.md,
+#       gets, then at 16.8M session 20's choices: blocks of 32, 128 invocations, the separate
+#       normal pass and staged control points; today's without the normals in the tile kernel;
+#       and blocks of 16), with nvidia-smi's clocks sampled meanwhile. `quick`: one small torus,
+#       for trying the script on lavapipe (its kernel, then the workgroup kernel with each block
+#       side and the separate normal pass, and blocks of 16 with 64 invocations and staged
+#       control points). KERNELs: psub_gpu_frame's kernel names to time at the largest size
+#       instead of those. Results: $OUT/gpu.md,
 #       $OUT/gpu.jsonl and $OUT/clocks.csv (./gpu-out/ when OUT is unset).
 # bench/README.md ("A run for a GPU") has the commands and what was measured.
 set -euo pipefail
@@ -67,8 +70,9 @@ EOF
     fi
     printf '\n```\n' >> "$out/gpu.md"
     : > "$out/gpu.jsonl"
-    local sizes=("512 2" "512 4" "512 6") others=(workgroup16 workgroup+normals workgroup16+normals) status=0 sampler=
-    [[ ${1:-} == quick ]] && sizes=("64 2") && others=(workgroup16 workgroup32 workgroup+normals)
+    local sizes=("512 2" "512 4" "512 6") others=(workgroup32x128+separate+staged workgroup+separate workgroup16) status=0 sampler=
+    [[ ${1:-} == quick ]] && sizes=("64 2") && others=(workgroup16+separate workgroup32+separate workgroup16x64+staged) && shift
+    (($# > 0)) && others=("$@")
     # The GPU's clocks every 250 ms while the frames run (a GPU left idle between frames may
     # not reach its highest clock).
     if command -v nvidia-smi > /dev/null; then
@@ -111,5 +115,5 @@ EOF
 case "${1:-}" in
     prepare) shift; prepare "$@" ;;
     run) shift; run "$@" ;;
-    *) echo "usage: bench/gpu_run.sh prepare [BUILD_DIR] | run [quick]" >&2; exit 2 ;;
+    *) echo "usage: bench/gpu_run.sh prepare [BUILD_DIR] | run [quick] [KERNEL...]" >&2; exit 2 ;;
 esac

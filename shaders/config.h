@@ -52,6 +52,7 @@
 #define PSUB_SPEC_TILE_NORMALS 11      // tile.comp, non-zero: also the tiles' inner points' unit normals,
                                        // written to PSUB_BINDING_DESTINATION + 1 (the positions in one
                                        // window), the last fine grid kept at this side (block side + 3)
+#define PSUB_SPEC_TILE_THREADS 12      // tile.comp: its workgroup's invocations (512 for blocks of 32, 256 for 16, unless asked)
 
 // Push constants, per dispatch (all 32-bit).
 //   rowCount           rows in this dispatch; invocations beyond it return at once

@@ -8,6 +8,12 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 
+// The workgroup's invocations (a specialization constant; the host asks 512 for blocks of 32 and
+// 256 for blocks of 16 by default): every pass loops over its points in steps of it, so it
+// changes how many lanes share a pass, never the sums.
+layout(local_size_x_id = PSUB_SPEC_TILE_THREADS) in;
+const uint kThreads = gl_WorkGroupSize.x;
+
 // The shared grids' side: the largest grid any step keeps, for the block side the host chose
 // from the device's shared memory (PSUB_TILE_GRID for blocks of 16, more for blocks of 32).
 layout(constant_id = PSUB_SPEC_TILE_GRID) const uint kGrid = PSUB_TILE_GRID;
@@ -33,12 +39,12 @@ uvec2 cell(uint i, uint n) {
 // of its cells (compute/tiled_kernels.cpp, quincunxBody).
 void quincunx(uint n) {
     const uint nv = n - 2u, nf = n - 1u;
-    for (uint i = gl_LocalInvocationIndex; i < nv * nv; i += PSUB_WORKGROUP_SIZE) {
+    for (uint i = gl_LocalInvocationIndex; i < nv * nv; i += kThreads) {
         const uvec2 xy = cell(i, nv) + 1u;
         const uint c = xy.y * n + xy.x;
         qv[i] = quincunxVertex(c, n);
     }
-    for (uint i = gl_LocalInvocationIndex; i < nf * nf; i += PSUB_WORKGROUP_SIZE) {
+    for (uint i = gl_LocalInvocationIndex; i < nf * nf; i += kThreads) {
         const uvec2 xy = cell(i, nf);
         const uint c = xy.y * n + xy.x;
         qf[i] = quincunxFace(c, n);
@@ -58,7 +64,7 @@ void put(uint x, uint y, uint side, const bool last, vec4 value) {
 
 void fineStep(uint n, uint p0, uint side, const bool last) {
     const uint nv = n - 2u, nf = n - 1u, cells = (side + 1u) / 2u;
-    for (uint k = gl_LocalInvocationIndex; k < cells * cells; k += PSUB_WORKGROUP_SIZE) {
+    for (uint k = gl_LocalInvocationIndex; k < cells * cells; k += kThreads) {
         const uvec2 ab = cell(k, cells);
         const uint x = 2u * ab.x, y = 2u * ab.y, i = (p0 + x) / 2u + 2u, j = (p0 + y) / 2u + 2u;
         // V(a, b) = qv[(b - 1) nv + a - 1], F(a, b) = qf[b nf + a].
@@ -81,7 +87,7 @@ void fineStep(uint n, uint p0, uint side, const bool last) {
 // same bits.
 void emitWithNormals(uint side) {
     const uint points = blockM + 1u;
-    for (uint k = gl_LocalInvocationIndex; k < points * points; k += PSUB_WORKGROUP_SIZE) {
+    for (uint k = gl_LocalInvocationIndex; k < points * points; k += kThreads) {
         const uvec2 xy = cell(k, points);
         bool inner;
         const uint at = ownedAt(xy.x, xy.y, inner);
@@ -114,7 +120,7 @@ void main() {
     const ivec2 cell0 = ivec2(blockX0 >> t, blockY0 >> t) - int(halo - pc.groupCount);
     const uint tileFirst = gatherFirst - (blockY0 >> t) * gridSide - (blockX0 >> t);
     for (firstValue = 0u; firstValue < kComponents; firstValue += 4u) {
-        for (uint i = gl_LocalInvocationIndex; i < n0 * n0; i += PSUB_WORKGROUP_SIZE) {
+        for (uint i = gl_LocalInvocationIndex; i < n0 * n0; i += kThreads) {
             const uvec2 at = uvec2(clamp(cell0 + ivec2(cell(i, n0)), 0, int(gridSide) - 1));
             grid[i] = readValues(gatheredAt(tileFirst + at.y * gridSide + at.x), firstValue);
         }

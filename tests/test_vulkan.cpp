@@ -280,10 +280,20 @@ TEST_F(Vulkan, FlatGridNormalsPointUp) {
 }
 
 TEST_F(Vulkan, StagingCopiesGiveTheSameResults) {
-    // The discrete-GPU path (staging buffers and copies) run on whatever device is here.
+    // The discrete-GPU paths run on whatever device is here: staging buffers and copies for
+    // everything, and the control points written in place with the results staged (what a
+    // discrete device with host-visible device memory gets).
     const Tables t = tablesFor(test::dataPath("cow.obj"), 2);
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
-        compareWithCpu(context(), t, form, 4, 2, {Staging::Always, 0});
+        for (Staging staging : {Staging::Always, Staging::Results}) {
+            compareWithCpu(context(), t, form, 4, 2, {staging, 0});
+            VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, form, 3, {staging, 0});
+            EXPECT_EQ(gpu.controlsWrittenInPlace(), staging == Staging::Results);
+        }
+    // Staging::Always holds a staging buffer for the control points as well.
+    VulkanEvaluator always(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3, {Staging::Always, 0});
+    VulkanEvaluator results(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3, {Staging::Results, 0});
+    EXPECT_GE(always.deviceBytes(), results.deviceBytes() + std::uint64_t(t.perLevel.controlCount) * 16);
 }
 
 TEST_F(Vulkan, SmallBindingLimitsSplitDispatchesAndBindWindowsWithTheSameResults) {
@@ -375,7 +385,7 @@ TEST_F(Vulkan, EmptyTablesAndZeroLevels) {
     const Tables t = tablesFor(test::dataPath("cube.obj"), 0);
     ASSERT_TRUE(t.perLevel.levels.empty());
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized})
-        for (Staging staging : {Staging::Auto, Staging::Always}) {
+        for (Staging staging : {Staging::Auto, Staging::Always, Staging::Results}) {
             VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, form, 3, {staging, 0});
             const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 0);
             std::vector<float> refined(control.size()), normals(control.size());

@@ -213,7 +213,9 @@ TEST_F(VulkanTiled, NormalsInTheTileKernelAreTheCpuTilePassBits) {
         VulkanEvaluator gpu(context(), t.r.tiled, 3, fused);
         EXPECT_TRUE(gpu.normalsInTilePass());
         EXPECT_TRUE(gpu.normalsInTileKernel());
-        EXPECT_FALSE(VulkanEvaluator(context(), t.r.tiled, 3, withKernel({TileKernel::Workgroup, 16})).normalsInTileKernel());
+        VulkanEvaluatorOptions separate = fused;
+        separate.fusedTileNormals = false;
+        EXPECT_FALSE(VulkanEvaluator(context(), t.r.tiled, 3, separate).normalsInTileKernel());
         compareWithCpu(context(), t, 3, 0.0, fused);
         CpuEvaluator<float> cpu(t.r.tiled, 3, 2);
         const std::size_t values = 3 * std::size_t(cpu.refinedCount());
@@ -230,6 +232,43 @@ TEST_F(VulkanTiled, NormalsInTheTileKernelAreTheCpuTilePassBits) {
         EXPECT_EQ(largestDifference(actualNormals, expectedNormals), 0.0);
     }
     EXPECT_EQ(doubleSteps, (std::set<std::uint32_t>{1, 2, 3}));
+}
+
+// The workgroup tile kernel with 64 and 1024 invocations a workgroup (tileThreads; the other
+// tests run the defaults, 256 for blocks of 16 and 512 for 32): the same bits, at t = 1, 2 and 3,
+// both block sides, widths 4 and 7 (two passes over the grids), with the normals in the kernel
+// and without.
+TEST_F(VulkanTiled, AnyWorkgroupSizeGivesTheSameBits) {
+    const test::Loaded torus = test::loadTorus(24, 24);
+    for (int steps : {2, 4, 6}) {
+        if (test::kSanitized && steps != 6) continue;
+        const Tiled t = tiledFor(torus, steps);
+        ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
+        for (std::uint32_t threads : {64u, 1024u})
+            for (std::uint32_t block : {16u, 32u}) {
+                SCOPED_TRACE("steps " + std::to_string(steps) + ", " + std::to_string(threads) + " invocations, blocks of " +
+                             std::to_string(block));
+                VulkanEvaluatorOptions options = withKernel({TileKernel::Workgroup, block});
+                options.tileThreads = threads;
+                for (bool fused : {false, true}) {
+                    options.fusedTileNormals = fused;
+                    EXPECT_EQ(VulkanEvaluator(context(), t.r.tiled, 4, options).tileThreads(), threads);
+                    for (std::uint32_t width : {4u, 7u}) compareWithCpu(context(), t, width, 0.0, options);
+                    // Lavapipe's shared memory holds the kept grid of blocks of 16 (of 32 on the smaller lattices).
+                    const bool inKernel = VulkanEvaluator(context(), t.r.tiled, 3, options).normalsInTileKernel();
+                    if (!fused || block == 16) {
+                        EXPECT_EQ(inKernel, fused);
+                    }
+                }
+            }
+    }
+    const Tiled t = tiledFor(torus, 6);
+    EXPECT_EQ(VulkanEvaluator(context(), t.r.tiled, 3, withKernel({TileKernel::Workgroup, 16})).tileThreads(), 256u);
+    EXPECT_EQ(VulkanEvaluator(context(), t.r.tiled, 3, withKernel({TileKernel::Workgroup, 32})).tileThreads(), 512u);
+    EXPECT_EQ(VulkanEvaluator(context(), t.r.tiled, 3, withKernel({TileKernel::Unrolled, 0})).tileThreads(), 0u);
+    VulkanEvaluatorOptions odd;
+    odd.tileThreads = 96;
+    EXPECT_THROW(VulkanEvaluator(context(), t.r.tiled, 3, odd), std::invalid_argument);
 }
 
 // A tile side that is no power of two, at t = 2 on a 30 x 30 torus: four tiles of 15 faces,
@@ -256,7 +295,7 @@ TEST_F(VulkanTiled, SmallBindingsSplitTheTilesIntoDispatchesWithTheSameResults) 
     ASSERT_GT(t.r.tiled.tileCount(), 0u);
     ASSERT_EQ(t.r.tiled.fallbackBegin, t.r.tiled.refinedCount);
     for (std::uint32_t width : {1u, 3u})
-        for (Staging staging : {Staging::Auto, Staging::Always}) {
+        for (Staging staging : {Staging::Auto, Staging::Always, Staging::Results}) {
             SCOPED_TRACE(width);
             const std::uint64_t stride = width == 3 ? 4 : width;
             const VulkanEvaluatorOptions small{staging, std::uint64_t(t.r.tiled.refinedCount) * stride * 4 / 3 + 1024};

@@ -96,7 +96,7 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     // most); PSUB_VULKAN_TEXELS=0 turns them off (the storage-buffer path, for comparison).
     const char* texelsEnv = std::getenv("PSUB_VULKAN_TEXELS");
     e.texels = e.limit / 4 <= limits.maxTexelBufferElements && !(texelsEnv && std::string(texelsEnv) == "0");
-    e.staging = options.staging == Staging::Always || !c.unifiedMemory() || !hasHostVisibleDeviceMemory(c);
+    e.staging = options.staging != Staging::Auto || !c.unifiedMemory() || !hasHostVisibleDeviceMemory(c);
 
     VkCommandPoolCreateInfo poolInfo{};
 
@@ -126,15 +126,24 @@ VulkanEvaluator::VulkanEvaluator(VulkanContext& context, const PerLevelTable& pe
     for (std::size_t k = 1; k <= levelCount; ++k)  // none for per-level with no levels: refined == control
             e.makeVertexBuffer(e.levels[k], form == TableForm::Factorized ? e.refined : perLevel.levels[k - 1].destinationCount,
                                padded, k == levelCount);
-    if (e.staging) {
+    e.controlsInPlace = !e.staging;
+    if (e.staging && options.staging != Staging::Always) e.placeControlsInHostVisibleMemory(options.staging == Staging::Results);
+    if (!e.controlsInPlace)
         e.controlUpload = createBuffer(c, std::uint64_t(e.controls) * e.levels[0].stride * 4, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                        Memory::Upload, true);
+    if (e.staging)
         e.refinedHost = createBuffer(c, std::uint64_t(e.refined) * e.refinedBuffer().stride * 4,
                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                      Memory::Readback, true);
-    }
 
     e.fusedTileNormals = options.fusedTileNormals;
+    e.tileThreads = options.tileThreads;  // 0: chosen with the block side (buildTiles)
+    if (e.tileThreads != 0 && (e.tileThreads < 64 || e.tileThreads > 1024 || (e.tileThreads & (e.tileThreads - 1)) != 0))
+        throw std::invalid_argument("VulkanEvaluator: the tile kernel's workgroup has 64, 128, 256, 512 or 1024 invocations, not " +
+                                    std::to_string(e.tileThreads));
+    if (e.tileThreads > limits.maxComputeWorkGroupInvocations || e.tileThreads > limits.maxComputeWorkGroupSize[0])
+        throw std::invalid_argument("VulkanEvaluator: " + std::string(c.properties.deviceName) + " runs at most " +
+                                    std::to_string(limits.maxComputeWorkGroupInvocations) + " invocations a workgroup");
     Uploader uploader(c, !e.staging);
     if (form == TableForm::Factorized) e.buildFactorized(factorized, uploader);
     else e.buildPerLevel(perLevel, uploader);
@@ -166,6 +175,12 @@ std::uint32_t VulkanEvaluator::width() const { return impl_->width; }
 GpuFrameTimes VulkanEvaluator::lastFrameTimes() const { return impl_->times; }
 bool VulkanEvaluator::normalsInTilePass() const { return impl_->tileNormals; }
 std::uint32_t VulkanEvaluator::tileBlockSide() const { return impl_->tileBlockSide; }
+bool VulkanEvaluator::controlsWrittenInPlace() const { return impl_->controlsInPlace; }
+std::uint32_t VulkanEvaluator::tileThreads() const {
+    for (const Stage& s : impl_->stencilStages)
+        if (s.kernel == Kernel::Tile) return s.specialization.tileThreads;
+    return 0;
+}
 bool VulkanEvaluator::normalsInTileKernel() const {
     for (const Stage& s : impl_->stencilStages)
         if (s.specialization.tileKeptSide != 0) return true;
@@ -270,7 +285,7 @@ void VulkanEvaluator::Impl::frame(std::span<const float> control, unsigned kind,
     const auto ms = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); };
     const Clock::time_point start = Clock::now();
     waitDeviceFrame();  // a submit() of caller buffers still running reads our buffers
-    float* upload = static_cast<float*>(e.staging ? e.controlUpload.mapped : e.levels.front().buffer.mapped);
+    float* upload = static_cast<float*>(e.controlsInPlace ? e.levels.front().buffer.mapped : e.controlUpload.mapped);
     copyElements(upload, e.levels.front().stride, control.data(), e.width, e.controls, e.width);
     const Clock::time_point uploaded = Clock::now();
     e.submit(kind);

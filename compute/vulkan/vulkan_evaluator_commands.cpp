@@ -76,7 +76,7 @@ void VulkanEvaluator::Impl::record(VkCommandBuffer command, unsigned kind) {
                   VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT |
                       VK_ACCESS_SHADER_WRITE_BIT);
     if (staging && (kind & (kStencils | kUploadRefined))) {
-        if (kind & kStencils) {
+        if ((kind & kStencils) && !controlsInPlace) {
             const VkBufferCopy region{0, 0, std::uint64_t(controls) * levels.front().stride * 4};
             if (region.size) vkCmdCopyBuffer(command, controlUpload.buffer, levels.front().buffer.buffer, 1, &region);
         }

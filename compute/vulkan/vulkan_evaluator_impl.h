@@ -128,6 +128,7 @@ struct VulkanEvaluator::Impl {
     Pipelines* pipelines = nullptr;  // the context's (pipelinesFor)
     std::uint32_t width, controls, refined;
     bool staging = false;
+    bool controlsInPlace = false;  // levels[0] is mapped and written by the host (no staging copy)
     bool texels = false;  // kernels read inputs and tables through texel buffers (config.h)
     std::uint64_t limit = 0, alignment = 16, maxRows = 0;
 
@@ -139,8 +140,9 @@ struct VulkanEvaluator::Impl {
     bool hasSurface = false;
     bool tileNormals = false;  // the tiled form's normals split (buildTileNormals)
     std::uint32_t tileBlockSide = 0;  // the widest tile block (buildTiles)
+    std::uint32_t tileThreads = 0;    // option: the workgroup tile kernel's invocations (0: buildTiles chooses)
     std::size_t tileStage = ~std::size_t(0);  // the tile kernel's stage in stencilStages (buildTiles)
-    bool fusedTileNormals = false;  // option: the workgroup tile kernel writes the inner points' normals
+    bool fusedTileNormals = true;   // option: the workgroup tile kernel writes the inner points' normals
     std::uint32_t tileKeptSide = 0, tileFusedGrid = 0;  // where it can (buildTiles): its kept and step grids' sides
     const SurfaceTable* drawnSurface = nullptr;  // the contract's drawing order (kept by reference)
     VkCommandBuffer deviceFrame = VK_NULL_HANDLE;  // submit(): re-recorded per call
@@ -162,6 +164,9 @@ struct VulkanEvaluator::Impl {
 
     // Construction steps.
     void makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride, bool mapped);
+    // With staging: levels[0] moved to mapped device-local memory where the device has some
+    // (any host-visible memory when `force`), so the host writes the control points in place.
+    void placeControlsInHostVisibleMemory(bool force);
     Window window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin, std::uint64_t end) const;
     bool fits(std::uint64_t bytes) const { return bindingLimits().fits(bytes); }
     BindingLimits bindingLimits() const;

@@ -28,6 +28,23 @@ void VulkanEvaluator::Impl::makeVertexBuffer(VertexBuffer& v, std::uint64_t elem
     v.buffer = createBuffer(context, elements * stride * 4, kUsage, Memory::Device, map);
 }
 
+void VulkanEvaluator::Impl::placeControlsInHostVisibleMemory(bool force) {
+    if (!force && !hasHostVisibleDeviceMemory(context)) return;
+    Buffer mapped;
+    try {
+        mapped = createBuffer(context, levels[0].buffer.size, kUsage, Memory::Device, true);
+    } catch (const VulkanError&) {
+        return;  // that memory is full (a small BAR): the staging copy
+    }
+    if (!force && !(mapped.flags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT)) {
+        destroyBuffer(context, mapped);  // host memory: the shaders would read it across the bus
+        return;
+    }
+    destroyBuffer(context, levels[0].buffer);
+    levels[0].buffer = mapped;
+    controlsInPlace = true;
+}
+
 Window VulkanEvaluator::Impl::window(const Buffer& buffer, std::uint64_t elementBytes, std::uint64_t begin,
                                      std::uint64_t end) const {
     Window w;
@@ -303,6 +320,17 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
     stage.specialization = {width, base.stride, refinedBuffer().stride, base.windows > 1, refinedBuffer().windows > 1};
     stage.specialization.tileSteps = t;
     stage.specialization.tileGrid = grid;
+    if (!unrolled) {
+        // Unless asked for: 512 invocations for blocks of 32, 256 for blocks of 16 (the fastest
+        // on an NVIDIA H200, bench/README.md "Session 22": more invocations keep more lanes busy
+        // on the small grids), at most what the device runs.
+        const VkPhysicalDeviceLimits& device = context.properties.limits;
+        std::uint32_t threads = tileThreads ? tileThreads : widest > PSUB_TILE_BLOCK ? 512 : 256;
+        while (threads > PSUB_WORKGROUP_SIZE &&
+               (threads > device.maxComputeWorkGroupInvocations || threads > device.maxComputeWorkGroupSize[0]))
+            threads /= 2;
+        stage.specialization.tileThreads = threads;
+    }
     stage.written = &refinedBuffer();
     for (const auto& [a, b] : chunks) {
         const std::uint64_t blocks = blockBegin[b] - blockBegin[a];

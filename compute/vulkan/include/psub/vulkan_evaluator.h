@@ -31,8 +31,13 @@ struct VulkanSubmitSync;     // psub/vulkan_interop.h: the caller's semaphores
 struct VulkanBufferRange;    // psub/vulkan_interop.h: a VkBuffer and an offset
 
 enum class Staging {
-    Auto,    // direct writes to host-visible buffers on CPU and integrated devices, else staging copies
-    Always,  // staging buffers and copy commands even where memory is host-visible
+    // CPU and integrated devices: every buffer written and read in place. Discrete devices: the
+    // control points written in place where device-local memory is host-visible (a resizable
+    // BAR; where the allocation fails or lands in host memory, a staging copy instead), the
+    // results read back through staging copies.
+    Auto,
+    Always,   // staging buffers and copy commands for everything, even where memory is host-visible
+    Results,  // a discrete device's Auto forced anywhere: control points in place, results staged
 };
 
 // The tiled form's kernel for its regular tiles (docs/tiled.md, "On Vulkan").
@@ -56,9 +61,13 @@ struct VulkanEvaluatorOptions {
     // grid it holds (the design's one pass), instead of the tile_normals.comp pass reading the
     // positions back (at t = 1 and 2 from a block window one level-B cell wider): where the
     // normals split (normalsInTilePass), the vertices have 3 or 4 values and the grids fit the
-    // shared memory; elsewhere as without it. The same bits either way. Off by default until
-    // measured faster on a GPU (bench/README.md, "A run for a GPU").
-    bool fusedTileNormals = false;
+    // shared memory; elsewhere as without it. The same bits either way; on an NVIDIA H200 never
+    // slower, and 0.14 ms of 1.09 faster at 16.8M faces (bench/README.md, "Session 22").
+    bool fusedTileNormals = true;
+    // The workgroup tile kernel's invocations per workgroup (one block each): 0 means 512 for
+    // blocks of 32 and 256 for blocks of 16 (halved while the device runs fewer); 64, 128, 256,
+    // 512 or 1024 ask for that many.
+    std::uint32_t tileThreads = 0;
 };
 
 // GPU-side time of the last frame, from timestamp queries (valid is false when the queue has
@@ -154,6 +163,10 @@ public:
     // (at most 16, or 32 where the device's shared memory holds it: VulkanEvaluatorOptions::
     // tileBlock), the unrolled kernel's 16; 0 without tiles.
     std::uint32_t tileBlockSide() const;
+    // The control points are written straight into the device's buffer (no copy in a frame).
+    bool controlsWrittenInPlace() const;
+    // The workgroup tile kernel's invocations per workgroup (tileThreads); 0 without it.
+    std::uint32_t tileThreads() const;
     // The tile kernel writes the tiles' inner points' normals itself (fusedTileNormals, where it can).
     bool normalsInTileKernel() const;
     // Dispatches in a frame's command buffer: stencils only, and with normals.
