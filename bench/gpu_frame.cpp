@@ -134,10 +134,11 @@ int main(int argc, char** argv) {
         std::printf("%s: torus %d x %d, %d P-S levels, %.0f faces, t = %u, %zu tiles, %.1f%% tiled; build %.2f s; ",
                     device.c_str(), n, n, levels, faces, tiled.doubleSteps, tiled.tileCount(),
                     100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount), buildSeconds);
-        std::printf("%s kernel (blocks of %u, %u invocations a block%s); control points %s; frame (evaluate + normals, kept on "
+        const std::string invocations = threads ? std::to_string(threads) + " invocations a block" : "one invocation a block";
+        std::printf("%s kernel (blocks of %u, %s%s); control points %s; frame (evaluate + normals, kept on "
                     "the device) GPU %.3f ms (positions %.3f of which the upload %.3f, normals %.3f), wall %.3f ms (writing the control points %.3f, "
                     "submit to fence %.3f); it writes %.1f MB a frame: %.1f GB/s",
-                    kernelName.c_str(), block, threads, normalsInKernel ? ", normals in it" : "",
+                    kernelName.c_str(), block, invocations.c_str(), normalsInKernel ? ", normals in it" : "",
                     inPlace ? "written in place" : "through a staging copy", gpuMs, median(positions),
                     median(uploads), median(normals), median(wall), median(hostWrite), median(hostWait), bytes / 1e6,
                     reached);

@@ -12,6 +12,10 @@
 #include <chrono>
 #include <cstdlib>
 
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
 namespace psub {
 
 namespace {
@@ -24,6 +28,16 @@ void copyElements(float* to, std::uint32_t toStride, const float* from, std::uin
         if (count) std::memcpy(to, from, count * width * sizeof(float));
         return;
     }
+#if defined(__SSE2__)
+    if (fromStride == 3 && width == 3 && toStride == 4) {
+        // Positions padded to vec4 with one 16-byte store each (GCC makes two 8-byte stores of the
+        // plain loop): a discrete GPU's host-visible memory is write-combined or uncached, where
+        // narrow stores cost more (on an H200's host the plain loop took 2 ms for 262,144 points).
+        for (std::size_t v = 0; v < count; ++v)
+            _mm_storeu_ps(to + 4 * v, _mm_setr_ps(from[3 * v], from[3 * v + 1], from[3 * v + 2], 0.0f));
+        return;
+    }
+#endif
     for (std::size_t v = 0; v < count; ++v) {
         for (std::uint32_t i = 0; i < width; ++i) to[v * toStride + i] = from[v * fromStride + i];
         for (std::uint32_t i = width; i < toStride; ++i) to[v * toStride + i] = 0.0f;
