@@ -14,7 +14,8 @@ import subprocess
 import sys
 
 FIELDS = {"device": str, "torus": int, "levels": int, "faces": (int, float), "vertices": (int, float),
-          "double_steps": int, "tiles": int, "tile_block": int, "tile_threads": int, "controls_in_place": bool, "tiled_share": float, "tile_kernel": str, "frames": int,
+          "double_steps": int, "tiles": int, "tile_block": int, "tile_threads": int, "controls_in_place": bool,
+          "tiled_share": float, "tile_kernel": str, "frames": int,
           "timestamps": bool, "gpu_ms_median": (int, float), "positions_ms_median": (int, float),
           "normals_ms_median": (int, float), "upload_ms_median": (int, float), "wall_ms_median": (int, float),
           "host_write_ms_median": (int, float), "host_wait_ms_median": (int, float), "reached_gbs": (int, float)}
