@@ -288,14 +288,14 @@ void appendLevel(PerLevelTable& table, const Level& parent, bool paired, bool sp
     appendStepRows(table, parent.faces, parent.connectivity, paired, splitBoundary, {}, rules, inputCorners);
 }
 
-// Room for all `steps` steps' rows from the input's counts, so that the table's arrays are
-// allocated once instead of growing (and being copied) at every level. A row's sources are
-// its centre, its edge neighbours and its diagonals (1 + 2 valence at most, summing to at most
-// V + 4E), a face point's corners (2E in all), a boundary row's two or three; a hint only: an
-// estimate that falls short just lets the arrays grow.
-void reserveRows(PerLevelTable& table, Counts parent, int steps, Boundary boundary, bool preprocessed) {
+// Room for the rows of steps firstStep..lastStep, from the counts of level firstStep - 1, so
+// that the table's arrays are allocated once instead of growing (and being copied) at every
+// level. A row's sources are its centre, its edge neighbours and its diagonals (1 + 2 valence
+// at most, summing to at most V + 4E), a face point's corners (2E in all), a boundary row's two
+// or three; a hint only: an estimate that falls short just lets the arrays grow.
+void reserveRows(PerLevelTable& table, Counts parent, int firstStep, int lastStep, Boundary boundary, bool preprocessed) {
     std::uint64_t rows = 0, indices = 0;
-    for (int k = 1; k <= steps; ++k) {
+    for (int k = firstStep; k <= lastStep; ++k) {
         const Counts child = countsAfterStep(parent, splitsBoundary(boundary, k - (preprocessed ? 1 : 0)));
         rows += child.vertices;
         indices += parent.vertices + 6 * parent.edges + 3 * parent.boundaryEdges;
@@ -456,6 +456,22 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     PerLevelTable leanRows;
     leanRows.controlCount = mesh.faces.vertexCount;
     std::vector<std::uint32_t> drawOf;
+    // Room for the lean build's rows of the steps known to make every row (as the per-level
+    // table's): the paired step, the steps up to level B, and all of them once level B has no
+    // tile. Without it the cow at 7 steps (no tile) spent over half its table's time growing
+    // and copying its rows (bench/README.md, "Session 23").
+    int leanReservedThrough = 0;
+    const auto reserveLeanRows = [&](int k) {  // parent is level k
+        if (!lean || leanReservedThrough != k) return;
+        int whole = int(plan.baseLevel);  // the plan is made on the first quad level
+        if (k < firstQuadLevel)
+            whole = firstQuadLevel;
+        else if (plan.doubleSteps == 0 || (k >= whole && blocks.side.empty()))
+            whole = steps;
+        if (whole <= k) return;
+        reserveRows(leanRows, countMesh(parent.faces, parent.connectivity), k + 1, whole, options.boundary, out.preprocessed);
+        leanReservedThrough = whole;
+    };
     const auto planTiles = [&](int k) {  // parent is level k
         if (!options.tiled) return;
         const auto start = Clock::now();
@@ -470,6 +486,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             blocks = chooseTileBlocks(parent, plan);
             if (lean && !blocks.side.empty()) labels = baseLabels(parent, blocks);
         }
+        reserveLeanRows(k);
         out.tiledMs += ms(start);
     };
     // Where the tiles are placed: on level N - 2, the parent of step N - 1 (without double
@@ -508,7 +525,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         out.uvMs += ms(start);
     }
     if (options.perLevel)
-        reserveRows(out.perLevel, countMesh(mesh.faces, connectivity), steps, options.boundary, out.preprocessed);
+        reserveRows(out.perLevel, countMesh(mesh.faces, connectivity), 1, steps, options.boundary, out.preprocessed);
     for (int k = 1; k <= steps; ++k) {
         auto start = Clock::now();
         const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));
