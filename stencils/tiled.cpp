@@ -8,7 +8,9 @@
 #include "tiled_build.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -307,14 +309,17 @@ bool walkLattice(const Walker& w, const FinestNames& names, const std::vector<In
 
 // The greedy cover of level B by blocks: for each side in turn, over faces in order, each
 // side x side block whose grid walks (walkBlock) and whose faces no earlier block has, if
-// accept(side, grid, cells) takes it (its faces are then covered).
+// accept(side, grid, cells) takes it (its faces are then covered). Given up, unfinished, once
+// `stop` is set.
 template <class Accept>
-void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo, Accept&& accept) {
+void coverBlocks(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo, Accept&& accept,
+                 const std::atomic<bool>* stop) {
     std::vector<std::uint8_t> covered(w.faces.faceCount(), 0);
     std::vector<Index> grid, cells;
     SeenMarks marks;
     for (std::uint32_t side : sides)
         for (Index f = 0; f < w.faces.faceCount(); ++f) {
+            if (stop && f % 4096 == 0 && stop->load(std::memory_order_relaxed)) return;
             if (covered[f] || !walkBlock(w, f, side, halo, covered, grid, cells, marks)) continue;
             if (!accept(side, grid, cells)) continue;
             for (Index c : cells) covered[c] = 1;
@@ -340,17 +345,21 @@ double tileCost(std::uint32_t side, std::uint32_t t, std::uint32_t halo) {
     return values;
 }
 
-// One greedy cover (coverBlocks) with `sides`, its blocks kept.
-TileBlocks coverWith(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo) {
+// One greedy cover (coverBlocks) with `sides`, its blocks kept (unfinished once `stop` is set).
+TileBlocks coverWith(const Walker& w, const std::vector<std::uint32_t>& sides, std::uint32_t halo,
+                     const std::atomic<bool>* stop = nullptr) {
     TileBlocks blocks;
     blocks.halo = halo;
     blocks.covered.assign(w.faces.faceCount(), 0);
-    coverBlocks(w, sides, halo, [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>& cells) {
-        blocks.side.push_back(side);
-        blocks.gather.insert(blocks.gather.end(), grid.begin(), grid.end());
-        for (Index c : cells) blocks.covered[c] = 1;
-        return true;
-    });
+    coverBlocks(
+        w, sides, halo,
+        [&](std::uint32_t side, const std::vector<Index>& grid, const std::vector<Index>& cells) {
+            blocks.side.push_back(side);
+            blocks.gather.insert(blocks.gather.end(), grid.begin(), grid.end());
+            for (Index c : cells) blocks.covered[c] = 1;
+            return true;
+        },
+        stop);
     return blocks;
 }
 
@@ -395,15 +404,26 @@ TileBlocks cheapestCover(Walker& w, std::uint32_t t, std::uint32_t halo) {
     }
     for (const std::vector<std::uint32_t>& sides : candidates) w.cacheCentres(sides, halo);
     // Each cover is a walk from every face, independent of the others: they run in parallel.
+    // A tile's cost per face falls as its side grows (tileCost / side^2), and a worthwhile
+    // side's is under a face's rows, so when the first candidate covers every face with blocks
+    // of its first side, the largest any candidate has, no cover costs less: the others are
+    // then given up (a torus whose side is a multiple of the largest block's: 4 covers -> 1).
     std::vector<TileBlocks> covers(candidates.size());
-    std::vector<double> costs(candidates.size());
+    std::vector<double> costs(candidates.size(), std::numeric_limits<double>::infinity());
+    std::atomic<bool> firstIsCheapest{false};
 #pragma omp parallel for schedule(dynamic, 1) if (w.faces.faceCount() > 4096)
     for (std::ptrdiff_t i = 0; i < std::ptrdiff_t(candidates.size()); ++i) {
+        if (firstIsCheapest.load()) continue;
         TileBlocks& blocks = covers[std::size_t(i)];
-        blocks = coverWith(w, candidates[std::size_t(i)], halo);
+        blocks = coverWith(w, candidates[std::size_t(i)], halo, i == 0 ? nullptr : &firstIsCheapest);
+        if (i > 0 && firstIsCheapest.load()) continue;  // maybe unfinished
         double cost = 0, covered = 0;
         for (std::uint32_t side : blocks.side) cost += tileCost(side, t, halo), covered += double(side) * side;
         costs[std::size_t(i)] = cost + (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
+        const std::uint32_t first = candidates[0][0];
+        if (i == 0 && covered == double(w.faces.faceCount()) &&
+            std::all_of(blocks.side.begin(), blocks.side.end(), [&](std::uint32_t side) { return side == first; }))
+            firstIsCheapest.store(true);
     }
     std::size_t best = 0;
     for (std::size_t i = 1; i < candidates.size(); ++i)
