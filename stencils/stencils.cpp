@@ -458,8 +458,8 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     std::vector<std::uint32_t> drawOf;
     // Room for the lean build's rows of the steps known to make every row (as the per-level
     // table's): the paired step, the steps up to level B, and all of them once level B has no
-    // tile. Without it the cow at 7 steps (no tile) spent over half its table's time growing
-    // and copying its rows (bench/README.md, "Session 23").
+    // tile. Without it the cow at 7 steps (no tile), built without huge pages, spent over half
+    // its table's time growing and copying its rows (bench/README.md, "Session 23").
     int leanReservedThrough = 0;
     const auto reserveLeanRows = [&](int k) {  // parent is level k
         if (!lean || leanReservedThrough != k) return;
