@@ -404,10 +404,15 @@ TileBlocks cheapestCover(Walker& w, std::uint32_t t, std::uint32_t halo) {
     }
     for (const std::vector<std::uint32_t>& sides : candidates) w.cacheCentres(sides, halo);
     // Each cover is a walk from every face, independent of the others: they run in parallel.
-    // A tile's cost per face falls as its side grows (tileCost / side^2), and a worthwhile
-    // side's is under a face's rows, so when the first candidate covers every face with blocks
-    // of its first side, the largest any candidate has, no cover costs less: the others are
-    // then given up (a torus whose side is a multiple of the largest block's: 4 covers -> 1).
+    // Every face of a cover costs at least the least cost per face of any side the candidates
+    // have (tileCost / side^2) or of a face's rows, so a cover that costs the faces' count times
+    // that least cost cannot be beaten: when the first candidate's does (on a torus whose side
+    // is a multiple of the largest block's, every face in blocks of that side, whose cost per
+    // face is the least), the others are given up and it is kept (4 covers -> 1).
+    double leastPerFace = finestPerFace * kFallbackPointCost;
+    for (const std::vector<std::uint32_t>& sides : candidates)
+        for (std::uint32_t side : sides) leastPerFace = std::min(leastPerFace, tileCost(side, t, halo) / (double(side) * side));
+    const double leastCost = leastPerFace * w.faces.faceCount() * (1 + 1e-12);
     std::vector<TileBlocks> covers(candidates.size());
     std::vector<double> costs(candidates.size(), std::numeric_limits<double>::infinity());
     std::atomic<bool> firstIsCheapest{false};
@@ -420,10 +425,7 @@ TileBlocks cheapestCover(Walker& w, std::uint32_t t, std::uint32_t halo) {
         double cost = 0, covered = 0;
         for (std::uint32_t side : blocks.side) cost += tileCost(side, t, halo), covered += double(side) * side;
         costs[std::size_t(i)] = cost + (w.faces.faceCount() - covered) * finestPerFace * kFallbackPointCost;
-        const std::uint32_t first = candidates[0][0];
-        if (i == 0 && covered == double(w.faces.faceCount()) &&
-            std::all_of(blocks.side.begin(), blocks.side.end(), [&](std::uint32_t side) { return side == first; }))
-            firstIsCheapest.store(true);
+        if (i == 0 && costs[0] <= leastCost) firstIsCheapest.store(true);
     }
     std::size_t best = 0;
     for (std::size_t i = 1; i < candidates.size(); ++i)
