@@ -63,9 +63,10 @@ inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& contr
 }
 
 // The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
-// each candidate on `control`: the per-level rows; the tiled form when `r` (built with both
-// forms) has tiles (on meshes whose finest points come mostly from the fallback it is slower:
-// docs/tiled.md); and, on the CPU when a frame runs on several threads, both with their rows
+// each candidate on `control`: the per-level rows; the tiled form of `r` (built with both
+// forms; without a tile it is the fallback's rows alone, in walk order, docs/tiled.md, timed
+// only where a frame runs on several threads: on meshes that small the order matters little,
+// and the per-level rows are kept without a timing); and, on the CPU when a frame runs on several threads, both with their rows
 // ordered by region, one region per thread (orderLevelsByRegion, the tiled form's rows up to its
 // level B; docs/design.md, "Threads and regions": faster where a thread reading another's fresh
 // writes is dear, slower on one thread). One evaluator at a time (a device's memory may hold one
@@ -86,7 +87,7 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
     const int threads = backend == Backend::Cpu && r.perLevel.regions == 1 && r.perLevel.levels.size() > 1
                             ? perLevelFrameThreads(r.perLevel)
                             : 1;
-    if (!tiles && threads == 1) {
+    if (!tiles && threads == 1) {  // small enough to run on one thread: its order matters little
         choice.reason = "auto: no regular tiles";
         return choice;
     }
@@ -94,12 +95,12 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
     const double perLevelMs = quickFrameMs(*makeEvaluator(backend, tablesOf(r), TableForm::PerLevel, context), control, out);
     double bestMs = perLevelMs;
     std::string times = "rest pose with normals " + millis(perLevelMs) + " ms per-level";
-    if (tiles) {
+    {
         std::unique_ptr<Evaluator> tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
         const double tiledMs = quickFrameMs(*tiled, control, out);
         times += ", " + millis(tiledMs) + " ms tiled";
         if (tiledMs < bestMs) bestMs = tiledMs, choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
-        if (threads > 1 && r.tiled.baseLevel > 1) {  // rows to order before level B
+        if (tiles && threads > 1 && r.tiled.baseLevel > 1) {  // rows to order before level B
             std::unique_ptr<Evaluator> asRefined = std::move(choice.tiled);  // it reads r.tiled.rows
             PerLevelTable rows = r.tiled.rows;
             orderLevelsByRegion(r.tiled.rows, std::uint32_t(threads), r.tiled.baseLevel);

@@ -1,8 +1,11 @@
 // orderLevelsByRegion: renumbers a per-level table's intermediate levels by region of the
 // control mesh and orders each row group's rows by region (docs/design.md, "Threads and
 // regions"), so that threads taking even shares of every group each work on one region at every
-// level and read mostly the points they wrote themselves. Reads the table only.
+// level and read mostly the points they wrote themselves. orderFallbackByWalk: the tiled
+// form's fallback points, and the levels only its rows use, numbered along a walk of the
+// surface (docs/tiled.md, "Output order"). Both read the tables only.
 #include "psub/stencils.h"
+#include "tiled_build.h"
 
 #include <algorithm>
 #include <climits>
@@ -13,6 +16,8 @@
 
 namespace psub {
 namespace {
+
+constexpr std::uint32_t kNone = ~0u;
 
 // Breadth-first ranks of the control points, over the pairs each level-0 row joins (its first
 // source with each other one); each connected component's points follow one another.
@@ -133,6 +138,137 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
     }
     table.regions = regions;
     table.regionLevels = std::uint32_t(levelCount);
+}
+
+namespace {
+
+// The fallback's finest points in order of first appearance along a breadth-first walk of the
+// finest faces (over shared corners; faces without a fallback corner neither walked nor
+// crossed): per drawing position, the new one (the tiles' unchanged).
+std::vector<std::uint32_t> fallbackWalkOrder(const TiledTable& table, const std::vector<std::uint32_t>& drawOf,
+                                             const Faces& finest) {
+    const Index faceCount = finest.faceCount(), vertexCount = finest.vertexCount;
+    // Which faces are walked (those with a fallback corner; without a tile, every one), and
+    // the faces around each vertex among them.
+    std::vector<char> walked(faceCount, 0);
+    if (table.fallbackBegin > 0)
+        for (Index f = 0; f < faceCount; ++f) {
+            walked[f] = 1;
+            for (Index v : finest.face(f))
+                if (drawOf[v] >= table.fallbackBegin) walked[f] = 0;
+        }
+    std::vector<Index> offsets(std::size_t(vertexCount) + 1, 0);
+    for (Index f = 0; f < faceCount; ++f)
+        if (!walked[f])
+            for (Index v : finest.face(f)) ++offsets[v + 1];
+    for (Index v = 0; v < vertexCount; ++v) offsets[v + 1] += offsets[v];
+    std::vector<Index> faces(offsets.back());
+    for (Index f = 0; f < faceCount; ++f)
+        if (!walked[f])
+            for (Index v : finest.face(f)) faces[offsets[v]++] = f;
+    for (Index v = vertexCount; v > 0; --v) offsets[v] = offsets[v - 1];  // back to each list's start
+    offsets[0] = 0;
+    // The walk: a face's corners placed in corner order as it is taken from the queue; the
+    // faces around a corner queued when it is placed (a corner placed before had its queued).
+    std::vector<std::uint32_t> position(table.refinedCount, kNone);
+    for (std::uint32_t p = 0; p < table.fallbackBegin; ++p) position[p] = p;
+    std::uint32_t placed = table.fallbackBegin;
+    std::vector<Index> queue;
+    queue.reserve(faceCount);
+    for (Index seed = 0; seed < faceCount; ++seed) {
+        if (walked[seed]) continue;
+        walked[seed] = 1;
+        queue.push_back(seed);
+        for (std::size_t head = queue.size() - 1; head < queue.size(); ++head)
+            for (Index v : finest.face(queue[head])) {
+                std::uint32_t& p = position[drawOf[v]];
+                if (p != kNone) continue;
+                p = placed++;
+                for (Index i = offsets[v]; i < offsets[v + 1]; ++i)
+                    if (!walked[faces[i]]) walked[faces[i]] = 1, queue.push_back(faces[i]);
+            }
+    }
+    for (std::uint32_t p = table.fallbackBegin; p < table.refinedCount; ++p)  // on no face
+        if (position[p] == kNone) position[p] = placed++;
+    return position;
+}
+
+}  // namespace
+
+void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest) {
+    PerLevelTable& rows = table.rows;
+    const std::size_t levels = rows.levels.size();
+    if (levels == 0 || table.fallbackBegin == table.refinedCount) return;
+    if (rows.regions != 1) throw std::logic_error("orderFallbackByWalk: the rows are region-ordered already");
+    if (finest.vertexCount != table.refinedCount || drawOf.size() != table.refinedCount ||
+        table.canonical.size() != table.refinedCount)
+        throw std::invalid_argument("orderFallbackByWalk: the faces are not the table's finest level");
+    // Per point of the level being renumbered, its new number: first the finest level's drawing
+    // positions (the fallback's moved).
+    std::vector<std::uint32_t> position = fallbackWalkOrder(table, drawOf, finest);
+    const std::vector<std::uint32_t> canonical(table.canonical);
+    for (std::uint32_t p = table.fallbackBegin; p < table.refinedCount; ++p) {
+        table.canonical[position[p]] = canonical[p];
+        drawOf[canonical[p]] = position[p];
+    }
+    // Then, from the finest level back, each level's rows by their new destination within each
+    // group (they ascend again), and the level before's points by first use by them, down to
+    // level `first`: level B and those before it are gathered by the tiles (without a tile,
+    // only the control points keep their numbers).
+    const std::size_t first = table.tileCount() > 0 ? std::size_t(table.baseLevel) + 1 : 1;
+    std::vector<std::uint32_t> rowAt, groupOf, sourcePosition, indices;
+    std::vector<std::uint64_t> nextRow;
+    for (std::size_t k = levels; k-- > first - 1;) {
+        const StencilLevel& level = rows.levels[k];
+        if (level.groupBegin == level.groupEnd) break;  // no row: nothing before it is used
+        rowAt.assign(level.destinationCount, kNone);  // per new destination: its row in the level
+        groupOf.resize(level.rowEnd - level.rowBegin);
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+            const RowGroup& group = rows.groups[g];
+            for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r) {
+                rowAt[position[rows.destinations[r]]] = std::uint32_t(r - level.rowBegin);
+                groupOf[r - level.rowBegin] = std::uint32_t(g);
+            }
+        }
+        const RowGroup& last = rows.groups[level.groupEnd - 1];
+        const std::uint64_t indexBegin = rows.groups[level.groupBegin].indexBegin;
+        indices.assign(rows.indices.begin() + std::ptrdiff_t(indexBegin),
+                       rows.indices.begin() + std::ptrdiff_t(last.indexBegin + last.rowCount * last.width));
+        const auto rowSources = [&](std::uint32_t row) {
+            const RowGroup& group = rows.groups[groupOf[row]];
+            return indices.data() + (group.indexBegin - indexBegin) + (level.rowBegin + row - group.rowBegin) * group.width;
+        };
+        // The rows rewritten in order of their new destinations, and (when the level before is
+        // renumbered too) its points numbered in order of first use by them, then those no row
+        // of this level reads.
+        const bool sources = k >= first;
+        if (sources) sourcePosition.assign(level.sourceCount, kNone);
+        std::uint32_t used = 0;
+        nextRow.clear();
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) nextRow.push_back(rows.groups[g].rowBegin);
+        for (std::uint32_t d = 0; d < level.destinationCount; ++d) {
+            if (rowAt[d] == kNone) continue;
+            const RowGroup& group = rows.groups[groupOf[rowAt[d]]];
+            const std::uint64_t to = nextRow[groupOf[rowAt[d]] - level.groupBegin]++;
+            rows.destinations[to] = d;
+            const std::uint32_t* from = rowSources(rowAt[d]);
+            std::uint32_t* ix = rows.indices.data() + group.indexBegin + (to - group.rowBegin) * group.width;
+            for (std::uint32_t j = 0; j < group.width; ++j) {
+                if (!sources) {
+                    ix[j] = from[j];
+                    continue;
+                }
+                std::uint32_t& p = sourcePosition[from[j]];
+                if (p == kNone) p = used++;
+                ix[j] = p;
+            }
+        }
+        if (sources)
+            for (std::uint32_t& p : sourcePosition)
+                if (p == kNone) p = used++;
+        if (!sources) break;
+        position.swap(sourcePosition);
+    }
 }
 
 }  // namespace psub

@@ -572,6 +572,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             keepFallbackRows(out.tiled, std::move(leanRows), drawOf);
         else
             keepFallbackRows(out.tiled, out.perLevel, drawOf);
+        orderFallbackByWalk(out.tiled, drawOf, parent.faces);
         setTiledSurface(out.tiled, parent.faces, drawOf);
         out.tiledMs += ms(start);
     }

@@ -754,9 +754,10 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
             finest.vertexCount != perLevel.refinedCount())
             throw std::invalid_argument("buildTiledTable: the levels given are not the per-level table's B, N - 2 and N");
     }
-    const std::vector<std::uint32_t> drawOf =
+    std::vector<std::uint32_t> drawOf =
         placeTiles(table, chooseTileBlocks(base, plan), &coarse, coarseSplits, perLevel.refinedCount());
     keepFallbackRows(table, perLevel, drawOf);
+    orderFallbackByWalk(table, drawOf, finest);
     setTiledSurface(table, finest, drawOf);
     return table;
 }

@@ -44,6 +44,15 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
 void keepFallbackRows(TiledTable& table, const PerLevelTable& rows, const std::vector<std::uint32_t>& drawOf);
 void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector<std::uint32_t>& drawOf);
 
+// The fallback's points in walk order (docs/tiled.md, "Output order"): its finest points in
+// order of first appearance along a breadth-first walk of the finest faces `finest` (canonical
+// numbers), then, level by level back to B + 1 (to level 1 without a tile), each level's points
+// in order of first use by the rows of the level after; each group's rows ordered by their new
+// destination. table.rows, table.canonical and drawOf renumbered to match: the same output
+// through `canonical`, with points near on the surface near in memory at every level (the cow
+// at 7 steps, no tile: evaluation with normals about 1.6x faster than in canonical order).
+void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest);
+
 // table.surface: the finest faces over drawing positions, ordered by their first drawn corner.
 void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<std::uint32_t>& drawOf);
 

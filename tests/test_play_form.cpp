@@ -109,6 +109,7 @@ TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoTimesBoth) {
     fs::remove(torus);
 }
 
+// Without a tile, on a mesh small enough for one thread, auto keeps the per-level rows untimed.
 TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
     const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --levels 3 --frames 2");
     EXPECT_EQ(run.status, 0) << run.err;
@@ -116,7 +117,9 @@ TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
 }
 
 // On several CPU threads auto also times the per-level rows ordered by region (one region per
-// thread); whichever wins plays the oracle's frames, and the JSON names the table's regions.
+// thread) and, though the cow has no tile, the tiled form (its fallback in walk order,
+// docs/tiled.md); whichever wins plays the oracle's frames, and the JSON names the table's
+// regions.
 TEST(PlayForm, AutoAlsoTimesTheRegionOrderOnSeveralThreads) {
     ::setenv("OMP_NUM_THREADS", "2", 1);  // two threads whatever this machine has
     const std::string cow = psub::test::dataPath("cow.obj");
@@ -124,15 +127,17 @@ TEST(PlayForm, AutoAlsoTimesTheRegionOrderOnSeveralThreads) {
     const Outcome json = psub("play '" + cow + "' --levels 3 --frames 2 --json");
     ::unsetenv("OMP_NUM_THREADS");
     EXPECT_EQ(run.status, 0) << run.err;
-    // "per-level (auto: ..." or, when the region order won, "per-level by 2 regions (auto: ...".
+    // "per-level (auto: ...", "tiled (auto: ..." (its fallback in walk order) or, when the region
+    // order won, "per-level by 2 regions (auto: ...".
     EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles; rest pose with normals ") ||
+                contains(run.out, "Table form: tiled (auto: no regular tiles; rest pose with normals ") ||
                 contains(run.out, "Table form: per-level by 2 regions (auto: no regular tiles; rest pose with normals "))
         << run.out;
-    EXPECT_TRUE(contains(run.out, " ms per-level by 2 regions)")) << run.out;
+    EXPECT_TRUE(contains(run.out, " ms tiled, ") && contains(run.out, " ms per-level by 2 regions)")) << run.out;
     EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
     EXPECT_EQ(json.status, 0) << json.err;
     EXPECT_TRUE(contains(json.out, "\"regions\": 1") || contains(json.out, "\"regions\": 2")) << json.out;
-    EXPECT_TRUE(contains(json.out, "\"form\": \"per-level\"")) << json.out;
+    EXPECT_TRUE(contains(json.out, "\"form\": \"per-level\"") || contains(json.out, "\"form\": \"tiled\"")) << json.out;
 }
 
 TEST(PlayForm, AnUnknownFormIsAUsageError) {

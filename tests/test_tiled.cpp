@@ -233,6 +233,46 @@ TEST(Tiled, DrawingOrderIsAPermutation) {
     }
 }
 
+// The fallback's points in walk order (docs/tiled.md, "Output order"): on the cow (no tile: all
+// fallback) a finest face's corners lie close in drawing order, where in canonical order they
+// lie far apart (corners from every level); every level's rows still ascend by destination
+// within each group (what the CPU kernel's consecutive-store path relies on), with tiles too
+// (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the same values.
+TEST(Tiled, TheFallbackIsInWalkOrder) {
+    const test::Loaded cow = test::load(test::dataPath("cow.obj"));
+    const Hierarchy h = test::refine(cow, 5);
+    const PerLevelTable perLevel = buildPerLevelTable(h);
+    const TiledTable table = buildTiledTable(h, perLevel);
+    ASSERT_EQ(table.tileCount(), 0u);
+    ASSERT_EQ(table.fallbackBegin, 0u);
+    std::vector<std::uint32_t> drawOf(table.refinedCount);
+    for (std::uint32_t p = 0; p < table.refinedCount; ++p) drawOf[table.canonical[p]] = p;
+    const Faces& finest = h.levels.back().faces;
+    double canonicalSpread = 0, drawingSpread = 0;
+    for (Index f = 0; f < finest.faceCount(); ++f) {
+        const auto [lo, hi] = std::minmax_element(finest.face(f).begin(), finest.face(f).end());
+        canonicalSpread += double(*hi - *lo);
+        std::uint32_t least = UINT32_MAX, most = 0;
+        for (Index v : finest.face(f)) least = std::min(least, drawOf[v]), most = std::max(most, drawOf[v]);
+        drawingSpread += double(most - least);
+    }
+    EXPECT_LT(drawingSpread * 20, canonicalSpread) << drawingSpread / finest.faceCount() << " against "
+                                                  << canonicalSpread / finest.faceCount();
+    const test::Loaded spot = test::load(test::dataPath("spot_control_mesh.obj"));
+    const Hierarchy spotH = test::refine(spot, 9);
+    const TiledTable spotTable = buildTiledTable(spotH, buildPerLevelTable(spotH), TileSides::Every);
+    ASSERT_GT(spotTable.tileCount(), 0u);
+    ASSERT_LT(spotTable.fallbackBegin, spotTable.refinedCount);
+    for (const PerLevelTable* rows : {&table.rows, &spotTable.rows})
+        for (const RowGroup& g : rows->groups)
+            for (std::uint64_t r = g.rowBegin + 1; r < g.rowBegin + g.rowCount; ++r)
+                ASSERT_LT(rows->destinations[r - 1], rows->destinations[r]);
+    EXPECT_LE(maxDifference(tiledCanonical<float>(spotTable, spot.mesh.positions), refinePositions(spotH, spot.mesh.positions)),
+              1e-6 * diagonal(spot.mesh.positions));
+    EXPECT_LE(maxDifference(tiledCanonical<float>(table, cow.mesh.positions), refinePositions(h, cow.mesh.positions)),
+              1e-6 * diagonal(cow.mesh.positions));
+}
+
 // A border point that two tiles compute is bitwise the same in both (and equals what its owner wrote).
 TEST(Tiled, SharedBorderPointsAreBitwiseIdentical) {
     for (int steps : {2, 4, 6}) {

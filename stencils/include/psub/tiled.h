@@ -15,8 +15,9 @@ namespace psub {
 
 // Output order of the tiled form ("drawing order"): the tiles' points, tile after tile (each
 // tile: its lattice's inner points row by row, then the border points it owns), then the
-// fallback's points in canonical order. `canonical[p]` is the canonical (SPEC) index of
-// drawing position p; `surface` is the finest faces over drawing positions.
+// fallback's points in walk order (near on the surface, near in memory: docs/tiled.md, "Output
+// order"). `canonical[p]` is the canonical (SPEC) index of drawing position p; `surface` is the
+// finest faces over drawing positions.
 struct TiledTable {
     static constexpr std::uint32_t kMaxLattice = 128;  // side << doubleSteps never exceeds it
     std::uint32_t controlCount = 0, refinedCount = 0;
@@ -25,7 +26,8 @@ struct TiledTable {
     std::uint32_t halo = 0;         // rings of level-B faces gathered around a tile's block
 
     // rows.levels[B, N): only the rows the fallback needs; the last level's destinations are
-    // drawing positions (in [fallbackBegin, refinedCount)).
+    // drawing positions (in [fallbackBegin, refinedCount)), the points of levels B + 1 .. N - 1
+    // (1 .. N - 1 without a tile) numbered in walk order, not canonical.
     PerLevelTable rows;
     std::uint32_t fallbackBegin = 0;
 
