@@ -216,6 +216,7 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
     // level `first`: level B and those before it are gathered by the tiles (without a tile,
     // only the control points keep their numbers).
     const std::size_t first = table.tileCount() > 0 ? std::size_t(table.baseLevel) + 1 : 1;
+    rows.walkFrom = std::uint32_t(first - 1);
     std::vector<std::uint32_t> rowAt, groupOf, sourcePosition, indices;
     std::vector<std::uint64_t> nextRow;
     for (std::size_t k = levels; k-- > first - 1;) {

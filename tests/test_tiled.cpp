@@ -237,7 +237,8 @@ TEST(Tiled, DrawingOrderIsAPermutation) {
 // fallback) a finest face's corners lie close in drawing order, where in canonical order they
 // lie far apart (corners from every level); every level's rows still ascend by destination
 // within each group (what the CPU kernel's consecutive-store path relies on), with tiles too
-// (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the same values.
+// (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the same values,
+// on one thread and on two (each level split in even shares of every group from walkFrom on).
 TEST(Tiled, TheFallbackIsInWalkOrder) {
     const test::Loaded cow = test::load(test::dataPath("cow.obj"));
     const Hierarchy h = test::refine(cow, 5);
@@ -269,6 +270,10 @@ TEST(Tiled, TheFallbackIsInWalkOrder) {
                 ASSERT_LT(rows->destinations[r - 1], rows->destinations[r]);
     EXPECT_LE(maxDifference(tiledCanonical<float>(spotTable, spot.mesh.positions), refinePositions(spotH, spot.mesh.positions)),
               1e-6 * diagonal(spot.mesh.positions));
+    // The CPU evaluator splits the walk-ordered levels in even shares of every group: the same bits.
+    EXPECT_EQ(table.rows.walkFrom, 0u);
+    EXPECT_EQ(spotTable.rows.walkFrom, spotTable.baseLevel);
+    EXPECT_TRUE(tiledCanonical<float>(table, cow.mesh.positions, 3, 1) == tiledCanonical<float>(table, cow.mesh.positions, 3, 2));
     EXPECT_LE(maxDifference(tiledCanonical<float>(table, cow.mesh.positions), refinePositions(h, cow.mesh.positions)),
               1e-6 * diagonal(cow.mesh.positions));
 }

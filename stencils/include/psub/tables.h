@@ -52,9 +52,13 @@ struct StencilLevel {
 // numbered region by region; level regionLevels (the finest level for a whole table) keeps its
 // numbering, and so every output value stays the same. The CPU evaluator then gives each thread
 // an even share of every group of those levels (docs/design.md, "Threads and regions").
+// The tiled form's rows of levels [walkFrom, levels.size()) write points numbered in walk order
+// (orderFallbackByWalk, docs/tiled.md): the first half of each group is then one half of the
+// surface, so the CPU evaluator splits those levels the same way.
 struct PerLevelTable {
     std::uint32_t controlCount = 0;
     std::uint32_t regions = 1, regionLevels = 0;
+    std::uint32_t walkFrom = UINT32_MAX;
     std::vector<StencilLevel> levels;
     std::vector<RowGroup> groups;
     std::vector<std::uint32_t> destinations;  // per row: the child vertex it writes
