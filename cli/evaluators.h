@@ -64,12 +64,12 @@ inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& contr
 
 // The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
 // each candidate on `control`: the per-level rows; the tiled form of `r` (built with both
-// forms; without a tile it is the fallback's rows alone, in walk order, docs/tiled.md, timed
-// only where a frame runs on several threads: on meshes that small the order matters little,
-// and the per-level rows are kept without a timing); and, on the CPU when a frame runs on several threads, both with their rows
-// ordered by region, one region per thread (orderLevelsByRegion, the tiled form's rows up to its
-// level B; docs/design.md, "Threads and regions": faster where a thread reading another's fresh
-// writes is dear, slower on one thread). One evaluator at a time (a device's memory may hold one
+// forms; without a tile it is the fallback's rows alone in walk order, docs/tiled.md, and is
+// timed only where a frame runs on several threads: below that the order matters little and
+// the per-level rows are kept untimed); and, on the CPU when a frame runs on several threads,
+// both with their rows ordered by region, one region per thread (orderLevelsByRegion, the tiled
+// form's rows up to its level B; docs/design.md, "Threads and regions": faster where a thread
+// reading another's fresh writes is dear, slower on one thread). One evaluator at a time (a device's memory may hold one
 // mesh's tables, not two): `tiled` is the tiled one when it won, else empty (make the per-level
 // one again). The rows of the winner stay region-ordered if that won (the same output, bit for
 // bit). `reason`: "auto: ...", for summaries. On lavapipe the tile kernel's first compile takes
