@@ -3,7 +3,8 @@
 // regions"), so that threads taking even shares of every group each work on one region at every
 // level and read mostly the points they wrote themselves. orderFallbackByWalk: the tiled
 // form's fallback points, and the levels only its rows use, numbered along a walk of the
-// surface (docs/tiled.md, "Output order"). Both read the tables only.
+// surface (docs/tiled.md, "Output order"). The first reads the table only, the second also the
+// finest faces.
 #include "psub/stencils.h"
 #include "tiled_build.h"
 
