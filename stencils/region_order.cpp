@@ -171,24 +171,42 @@ std::vector<std::uint32_t> fallbackWalkOrder(const TiledTable& table, const std:
     offsets[0] = 0;
     // The walk: a face's corners placed in corner order as it is taken from the queue; the
     // faces around a corner queued when it is placed (a corner placed before had its queued).
-    std::vector<std::uint32_t> position(table.refinedCount, kNone);
-    for (std::uint32_t p = 0; p < table.fallbackBegin; ++p) position[p] = p;
+    // placedAt[v]: finest vertex v's new drawing position (a tile's point: its own), kNone
+    // until placed. The queue is read ahead (prefetches): a face's corners, then their data,
+    // then their faces' flags, are in cache when it is taken (the walk is bound by misses).
+    std::vector<std::uint32_t> placedAt(vertexCount);
+    for (Index v = 0; v < vertexCount; ++v) placedAt[v] = drawOf[v] < table.fallbackBegin ? drawOf[v] : kNone;
     std::uint32_t placed = table.fallbackBegin;
     std::vector<Index> queue;
     queue.reserve(faceCount);
+    const auto readAhead = [&](std::size_t head) {
+        if (head + 88 < queue.size()) __builtin_prefetch(&finest.offsets[queue[head + 88]]);
+        if (head + 32 < queue.size()) __builtin_prefetch(&finest.verts[finest.offsets[queue[head + 32]]]);
+        if (head + 32 < queue.size())
+            for (Index v : finest.face(queue[head + 32])) {
+                __builtin_prefetch(&placedAt[v]);
+                __builtin_prefetch(&offsets[v]);
+            }
+        if (head + 8 < queue.size())
+            for (Index v : finest.face(queue[head + 8])) __builtin_prefetch(&faces[offsets[v]]);
+    };
     for (Index seed = 0; seed < faceCount; ++seed) {
         if (walked[seed]) continue;
         walked[seed] = 1;
         queue.push_back(seed);
-        for (std::size_t head = queue.size() - 1; head < queue.size(); ++head)
+        for (std::size_t head = queue.size() - 1; head < queue.size(); ++head) {
+            readAhead(head);
             for (Index v : finest.face(queue[head])) {
-                std::uint32_t& p = position[drawOf[v]];
-                if (p != kNone) continue;
-                p = placed++;
+                if (placedAt[v] != kNone) continue;
+                placedAt[v] = placed++;
                 for (Index i = offsets[v]; i < offsets[v + 1]; ++i)
                     if (!walked[faces[i]]) walked[faces[i]] = 1, queue.push_back(faces[i]);
             }
+        }
     }
+    std::vector<std::uint32_t> position(table.refinedCount, kNone);
+    for (Index v = 0; v < vertexCount; ++v)
+        if (placedAt[v] != kNone) position[drawOf[v]] = placedAt[v];
     for (std::uint32_t p = table.fallbackBegin; p < table.refinedCount; ++p)  // on no face
         if (position[p] == kNone) position[p] = placed++;
     return position;
@@ -218,40 +236,53 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
     // only the control points keep their numbers).
     const std::size_t first = table.tileCount() > 0 ? std::size_t(table.baseLevel) + 1 : 1;
     rows.walkFrom = std::uint32_t(first - 1);
-    std::vector<std::uint32_t> rowAt, groupOf, sourcePosition, indices;
-    std::vector<std::uint64_t> nextRow;
+    // rowAt[d]: the row writing new destination d, as its group within the level (high 32 bits)
+    // and its row within the level (low 32), or kNoRow.
+    constexpr std::uint64_t kNoRow = ~std::uint64_t(0);
+    std::vector<std::uint64_t> rowAt, nextRow;
+    std::vector<std::uint32_t> sourcePosition, indices;
     for (std::size_t k = levels; k-- > first - 1;) {
         const StencilLevel& level = rows.levels[k];
         if (level.groupBegin == level.groupEnd) break;  // no row: nothing before it is used
-        rowAt.assign(level.destinationCount, kNone);  // per new destination: its row in the level
-        groupOf.resize(level.rowEnd - level.rowBegin);
+        rowAt.assign(level.destinationCount, kNoRow);
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = rows.groups[g];
-            for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r) {
-                rowAt[position[rows.destinations[r]]] = std::uint32_t(r - level.rowBegin);
-                groupOf[r - level.rowBegin] = std::uint32_t(g);
-            }
+            for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r)
+                rowAt[position[rows.destinations[r]]] = (g - level.groupBegin) << 32 | (r - level.rowBegin);
         }
         const RowGroup& last = rows.groups[level.groupEnd - 1];
         const std::uint64_t indexBegin = rows.groups[level.groupBegin].indexBegin;
         indices.assign(rows.indices.begin() + std::ptrdiff_t(indexBegin),
                        rows.indices.begin() + std::ptrdiff_t(last.indexBegin + last.rowCount * last.width));
-        const auto rowSources = [&](std::uint32_t row) {
-            const RowGroup& group = rows.groups[groupOf[row]];
-            return indices.data() + (group.indexBegin - indexBegin) + (level.rowBegin + row - group.rowBegin) * group.width;
+        const auto groupAt = [&](std::uint64_t at) -> const RowGroup& { return rows.groups[level.groupBegin + (at >> 32)]; };
+        const auto rowSources = [&](std::uint64_t at) {
+            const RowGroup& group = groupAt(at);
+            return indices.data() + (group.indexBegin - indexBegin) +
+                   (level.rowBegin + (at & 0xffffffffu) - group.rowBegin) * group.width;
         };
         // The rows rewritten in order of their new destinations, and (when the level before is
         // renumbered too) its points numbered in order of first use by them, then those no row
-        // of this level reads.
+        // of this level reads. Read ahead (prefetches): the sources of the row 8 destinations
+        // on, the new numbers of the row 4 on (the rows lie in canonical order: misses).
         const bool sources = k >= first;
         if (sources) sourcePosition.assign(level.sourceCount, kNone);
         std::uint32_t used = 0;
         nextRow.clear();
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) nextRow.push_back(rows.groups[g].rowBegin);
-        for (std::uint32_t d = 0; d < level.destinationCount; ++d) {
-            if (rowAt[d] == kNone) continue;
-            const RowGroup& group = rows.groups[groupOf[rowAt[d]]];
-            const std::uint64_t to = nextRow[groupOf[rowAt[d]] - level.groupBegin]++;
+        const std::uint32_t count = level.destinationCount;
+        for (std::uint32_t d = 0; d < count; ++d) {
+            if (d + 32 < count && rowAt[d + 32] != kNoRow) {
+                const std::uint32_t* ahead = rowSources(rowAt[d + 32]);
+                __builtin_prefetch(ahead);
+                __builtin_prefetch(ahead + groupAt(rowAt[d + 32]).width - 1);
+            }
+            if (sources && d + 16 < count && rowAt[d + 16] != kNoRow) {
+                const std::uint32_t* ahead = rowSources(rowAt[d + 16]);
+                for (std::uint32_t j = 0; j < groupAt(rowAt[d + 16]).width; ++j) __builtin_prefetch(&sourcePosition[ahead[j]]);
+            }
+            if (rowAt[d] == kNoRow) continue;
+            const RowGroup& group = groupAt(rowAt[d]);
+            const std::uint64_t to = nextRow[rowAt[d] >> 32]++;
             rows.destinations[to] = d;
             const std::uint32_t* from = rowSources(rowAt[d]);
             std::uint32_t* ix = rows.indices.data() + group.indexBegin + (to - group.rowBegin) * group.width;
