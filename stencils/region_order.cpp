@@ -212,6 +212,34 @@ std::vector<std::uint32_t> fallbackWalkOrder(const TiledTable& table, const std:
     return position;
 }
 
+// Level k's points (k >= 1), numbered by `position` (old number -> new), renumbered again:
+// group by group of the level-(k - 1) rows that write them, each group's in their order by
+// `position` (points no row writes last); level k's rows, already rewritten with `position`,
+// are remapped, and `position` becomes the composed numbering. So each group of level k - 1
+// writes consecutive points, in order: the CPU kernel then reads no destination and stores 16
+// bytes a point (docs/tiled.md, "Output order").
+void groupLevelPoints(PerLevelTable& rows, std::size_t k, std::vector<std::uint32_t>& position,
+                      std::vector<std::uint32_t>& groupOf, std::vector<std::uint32_t>& starts) {
+    const StencilLevel& writers = rows.levels[k - 1];
+    const std::uint32_t groups = std::uint32_t(writers.groupEnd - writers.groupBegin), count = writers.destinationCount;
+    groupOf.assign(count, groups);  // per point by its current new number: its writer's group
+    for (std::uint64_t g = writers.groupBegin; g < writers.groupEnd; ++g) {
+        const RowGroup& group = rows.groups[g];
+        for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r)
+            groupOf[position[rows.destinations[r]]] = std::uint32_t(g - writers.groupBegin);
+    }
+    starts.assign(std::size_t(groups) + 2, 0);
+    for (std::uint32_t q = 0; q < count; ++q) ++starts[groupOf[q] + 1];
+    for (std::uint32_t i = 0; i <= groups; ++i) starts[i + 1] += starts[i];
+    for (std::uint32_t q = 0; q < count; ++q) groupOf[q] = starts[groupOf[q]]++;  // now: q's final number
+    for (std::uint32_t& p : position) p = groupOf[p];
+    const StencilLevel& readers = rows.levels[k];
+    const auto begin = rows.indices.begin() + std::ptrdiff_t(rows.groups[readers.groupBegin].indexBegin);
+    const RowGroup& last = rows.groups[readers.groupEnd - 1];
+    const auto end = rows.indices.begin() + std::ptrdiff_t(last.indexBegin + last.rowCount * last.width);
+    for (auto it = begin; it != end; ++it) *it = groupOf[*it];
+}
+
 }  // namespace
 
 void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest) {
@@ -231,16 +259,17 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
         drawOf[canonical[p]] = position[p];
     }
     // Then, from the finest level back, each level's rows by their new destination within each
-    // group (they ascend again), and the level before's points by first use by them, down to
-    // level `first`: level B and those before it are gathered by the tiles (without a tile,
-    // only the control points keep their numbers).
+    // group (they ascend again), and the level before's points by first use by them, then
+    // grouped by the group of the row that writes them (groupLevelPoints), down to level
+    // `first`: level B and those before it are gathered by the tiles (without a tile, only the
+    // control points keep their numbers).
     const std::size_t first = table.tileCount() > 0 ? std::size_t(table.baseLevel) + 1 : 1;
     rows.walkFrom = std::uint32_t(first - 1);
     // rowAt[d]: the row writing new destination d, as its group within the level (high 32 bits)
     // and its row within the level (low 32), or kNoRow.
     constexpr std::uint64_t kNoRow = ~std::uint64_t(0);
     std::vector<std::uint64_t> rowAt, nextRow;
-    std::vector<std::uint32_t> sourcePosition, indices;
+    std::vector<std::uint32_t> sourcePosition, indices, groupedPoints, groupedStarts;
     for (std::size_t k = levels; k-- > first - 1;) {
         const StencilLevel& level = rows.levels[k];
         if (level.groupBegin == level.groupEnd) break;  // no row: nothing before it is used
@@ -300,6 +329,7 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
             for (std::uint32_t& p : sourcePosition)
                 if (p == kNone) p = used++;
         if (!sources) break;
+        groupLevelPoints(rows, k, sourcePosition, groupedPoints, groupedStarts);
         position.swap(sourcePosition);
     }
 }

@@ -268,6 +268,19 @@ TEST(Tiled, TheFallbackIsInWalkOrder) {
         for (const RowGroup& g : rows->groups)
             for (std::uint64_t r = g.rowBegin + 1; r < g.rowBegin + g.rowCount; ++r)
                 ASSERT_LT(rows->destinations[r - 1], rows->destinations[r]);
+    // The walk-ordered levels before the finest are numbered group by group of the rows that
+    // write them: each such group writes consecutive points.
+    for (const PerLevelTable* rows : {&table.rows, &spotTable.rows}) {
+        std::size_t grouped = 0;
+        for (std::size_t k = rows->walkFrom; k + 1 < rows->levels.size(); ++k)
+            for (std::uint64_t g = rows->levels[k].groupBegin; g < rows->levels[k].groupEnd; ++g, ++grouped) {
+                const RowGroup& group = rows->groups[g];
+                ASSERT_EQ(rows->destinations[group.rowBegin + group.rowCount - 1] - rows->destinations[group.rowBegin],
+                          group.rowCount - 1)
+                    << "level " << k << ", group " << g;
+            }
+        EXPECT_GT(grouped, 4u);
+    }
     EXPECT_LE(maxDifference(tiledCanonical<float>(spotTable, spot.mesh.positions), refinePositions(spotH, spot.mesh.positions)),
               1e-6 * diagonal(spot.mesh.positions));
     // The CPU evaluator splits the walk-ordered levels in even shares of every group: the same bits.
