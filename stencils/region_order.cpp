@@ -172,8 +172,9 @@ std::vector<std::uint32_t> fallbackWalkOrder(const TiledTable& table, const std:
     // The walk: a face's corners placed in corner order as it is taken from the queue; the
     // faces around a corner queued when it is placed (a corner placed before had its queued).
     // placedAt[v]: finest vertex v's new drawing position (a tile's point: its own), kNone
-    // until placed. The queue is read ahead (prefetches): a face's corners, then their data,
-    // then their faces' flags, are in cache when it is taken (the walk is bound by misses).
+    // until placed. The queue is read ahead (prefetches, at the distances measured best): a
+    // face's corner offset 88 faces ahead, its corners and their data 32 ahead, their face
+    // lists 8 ahead, so that they are in cache when it is taken (the walk is bound by misses).
     std::vector<std::uint32_t> placedAt(vertexCount);
     for (Index v = 0; v < vertexCount; ++v) placedAt[v] = drawOf[v] < table.fallbackBegin ? drawOf[v] : kNone;
     std::uint32_t placed = table.fallbackBegin;
@@ -291,8 +292,8 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
         };
         // The rows rewritten in order of their new destinations, and (when the level before is
         // renumbered too) its points numbered in order of first use by them, then those no row
-        // of this level reads. Read ahead (prefetches): the sources of the row 8 destinations
-        // on, the new numbers of the row 4 on (the rows lie in canonical order: misses).
+        // of this level reads. Read ahead (prefetches): the sources of the row 32 destinations
+        // on, the new numbers of the row 16 on (the rows lie in canonical order: misses).
         const bool sources = k >= first;
         if (sources) sourcePosition.assign(level.sourceCount, kNone);
         std::uint32_t used = 0;
