@@ -27,7 +27,8 @@ struct TiledTable {
 
     // rows.levels[B, N): only the rows the fallback needs; the last level's destinations are
     // drawing positions (in [fallbackBegin, refinedCount)), the points of levels B + 1 .. N - 1
-    // (1 .. N - 1 without a tile) numbered in walk order, not canonical.
+    // (1 .. N - 1 without a tile) numbered in walk order (each level's grouped by the row group
+    // that writes them), not canonical.
     PerLevelTable rows;
     std::uint32_t fallbackBegin = 0;
 
