@@ -2,14 +2,15 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run.
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair]
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair|normals]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
 // "build", only the builds, ROUNDS times each in one process with psub's allocator settings
 // (the per-level table with its surface; the tiled form's lean build), for perf, and with
 // "build-per-level" or "build-lean" only one of them; with "pair",
 // the per-level rows of one mesh on 1 thread, of two copies side by side on 2 threads, and of
 // one mesh on 2 threads (what a second thread is worth to one mesh, and to two), then the
-// region-ordered copy of the table (orderLevelsByRegion) on 1 and 2 threads.
+// region-ordered copy of the table (orderLevelsByRegion) on 1 and 2 threads; with "normals", on
+// 2 threads, the tiled form's frame without and with normals, and the per-level form's normals().
 #include "detail.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -105,6 +106,29 @@ int main(int argc, char** argv) {
     std::vector<float> control(mesh.positions.begin(), mesh.positions.end());
     std::vector<float> out(3 * std::size_t(tiled.refinedCount));
     const double bytes = 12.0 * tiled.refinedCount;
+    if (mode == "normals") {
+        using Evaluator = psub::CpuEvaluator<float>;
+        Evaluator tiledForm(tiled, 3, 2), perLevelForm(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 2);
+        std::vector<float> normals(out.size()), canonical(out.size());
+        auto ms = [](auto&& work) {
+            const auto start = std::chrono::steady_clock::now();
+            work();
+            return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        };
+        for (int round = 0; round < rounds; ++round) {
+            std::vector<double> positions, withNormals, perLevelNormals;
+            for (int f = 0; f < frames; ++f) {
+                positions.push_back(ms([&] { tiledForm.evaluate(control, out); }));
+                withNormals.push_back(ms([&] { tiledForm.evaluate(control, out, normals); }));
+                perLevelForm.evaluate(control, canonical);
+                perLevelNormals.push_back(ms([&] { perLevelForm.normals(canonical, normals); }));
+            }
+            std::printf("tiled frame %.3f ms, with normals %.3f ms (normals %.3f); per-level normals() %.3f ms\n",
+                        median(positions), median(withNormals), median(withNormals) - median(positions),
+                        median(perLevelNormals));
+        }
+        return 0;
+    }
     if (mode == "pair") {
         // Does a second thread help one mesh as much as it helps two? The per-level rows of one
         // mesh on 1 thread, of two copies side by side (one evaluator of 1 thread each, both

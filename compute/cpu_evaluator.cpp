@@ -126,6 +126,7 @@ CpuEvaluator<T>::CpuEvaluator(const TiledTable& tiled, std::uint32_t width, int 
     if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
     allocate();
     tileNormals_ = tileNormalSets(tiled);
+    prefetchNormals_ = false;
 }
 
 template <class T>
@@ -315,6 +316,20 @@ void CpuEvaluator<T>::vertexNormalsScalar(T* out, const std::vector<std::uint32_
 // doing the scalar passes' operations in their order, so the results are bit-identical.
 // The face pass computes the three Newell sums (or a quad's diagonals' cross product) as
 // products of rotated vectors.
+namespace {
+
+__m128 yzx(__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 0, 2, 1)); }
+__m128 zxy(__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 1, 0, 2)); }
+
+// (v2 - v0) x (v3 - v1), as the scalar pass; the 4th value 0.
+__m128 quadNormal(__m128 v0, __m128 v1, __m128 v2, __m128 v3) {
+    const __m128 a = _mm_sub_ps(v2, v0), b = _mm_sub_ps(v3, v1);
+    const __m128 n = _mm_sub_ps(_mm_mul_ps(yzx(a), zxy(b)), _mm_mul_ps(zxy(a), yzx(b)));
+    return _mm_and_ps(n, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0)));
+}
+
+}  // namespace
+
 template <class T>
 void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_t>* only) {
     if constexpr (std::is_same_v<T, float>) {
@@ -322,46 +337,67 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
         const std::size_t stride = width_;
         // A 16-byte load at a vertex reads one value past its position: past the buffer only
         // for the last vertex of a packed buffer, which is loaded value by value.
-        const std::uint32_t wide = stride > 3 ? surface_.vertexCount : surface_.vertexCount - 1;
+        const std::uint32_t last = surface_.vertexCount - 1, wide = stride > 3 ? last + 1 : last;
         auto load = [&](std::uint32_t i) {
             const float* q = p + std::size_t(i) * stride;
             if (i < wide) [[likely]]
                 return _mm_loadu_ps(q);
             return _mm_setr_ps(q[0], q[1], q[2], 0.0f);
         };
-        const __m128 keepXyz = _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0));
         float* faceNormals = faceNormals_.data();
         const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
         const std::uint32_t* faceVerts = surface_.faceVerts.data();
         const auto [fBegin, fEnd] = share(faces);
         constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
+        const bool prefetch = prefetchNormals_;
+        if (allQuads_ && !only && stride == 3 && fBegin < fEnd) {
+            // Every face, quads, a packed buffer (the common case, and a third faster on the cow
+            // at 7 steps than the general loop below): no test per load, the stride known. Only
+            // the faces around the last vertex (vertexFaces lists them in order) go through
+            // `load`, in sequence with the others.
+            auto quad = [&](std::uint32_t f) {
+                const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
+                if (prefetch && f + kAhead < fEnd)
+                    for (int k = 0; k < 4; ++k) __builtin_prefetch(p + 3 * std::size_t(c[4 * kAhead + k]));
+                const __m128 n = quadNormal(_mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
+                                            _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3])));
+                _mm_store_ps(faceNormals + 4 * std::size_t(f), n);
+            };
+            const std::uint32_t* lastFaces = surface_.vertexFaces.data() + surface_.vertexOffsets[last];
+            const std::uint32_t* lastFacesEnd = surface_.vertexFaces.data() + surface_.vertexOffsets[last + 1];
+            std::uint32_t f = std::uint32_t(fBegin);
+            for (const std::uint32_t* l = lastFaces;; ++l) {
+                const std::uint32_t stop = l == lastFacesEnd ? std::uint32_t(fEnd) : std::clamp(*l, f, std::uint32_t(fEnd));
+                for (; f < stop; ++f) quad(f);
+                if (l == lastFacesEnd) return;
+                if (f == *l && f < fEnd) {
+                    const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
+                    _mm_store_ps(faceNormals + 4 * std::size_t(f), quadNormal(load(c[0]), load(c[1]), load(c[2]), load(c[3])));
+                    ++f;
+                }
+            }
+        }
         for (std::uint32_t i = std::uint32_t(fBegin); i < std::uint32_t(fEnd); ++i) {
             const std::uint32_t f = only ? (*only)[i] : i;
             const std::uint32_t begin = allQuads_ ? 4 * f : faceOffsets[f];
             const std::uint32_t end = allQuads_ ? begin + 4 : faceOffsets[f + 1];
-            if (allQuads_ && i + kAhead < fEnd) {
+            if (prefetch && allQuads_ && i + kAhead < fEnd) {
                 const std::uint32_t* ahead = faceVerts + 4 * std::size_t(only ? (*only)[i + kAhead] : f + kAhead);
                 for (int k = 0; k < 4; ++k) __builtin_prefetch(p + std::size_t(ahead[k]) * stride);
             }
-            // n += (a.yzx - b.yzx) * (a.zxy + b.zxy) for each edge a b, in corner order.
             __m128 n = _mm_setzero_ps();
-            auto edge = [&](__m128 a1, __m128 a2, __m128 b1, __m128 b2) {
-                n = _mm_add_ps(n, _mm_mul_ps(_mm_sub_ps(a1, b1), _mm_add_ps(a2, b2)));
-            };
-            auto yzx = [](__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 0, 2, 1)); };
-            auto zxy = [](__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 1, 0, 2)); };
-            if (end - begin == 4) {  // a quad: (v2 - v0) x (v3 - v1), as the scalar pass
-                const __m128 v0 = load(faceVerts[begin]), v1 = load(faceVerts[begin + 1]);
-                const __m128 v2 = load(faceVerts[begin + 2]), v3 = load(faceVerts[begin + 3]);
-                const __m128 a = _mm_sub_ps(v2, v0), b = _mm_sub_ps(v3, v1);
-                n = _mm_sub_ps(_mm_mul_ps(yzx(a), zxy(b)), _mm_mul_ps(zxy(a), yzx(b)));
+            if (end - begin == 4) {
+                n = quadNormal(load(faceVerts[begin]), load(faceVerts[begin + 1]), load(faceVerts[begin + 2]),
+                               load(faceVerts[begin + 3]));
             } else {
+                // n += (a.yzx - b.yzx) * (a.zxy + b.zxy) for each edge a b, in corner order.
                 for (std::uint32_t c = begin; c < end; ++c) {
                     const __m128 a = load(faceVerts[c]), b = load(faceVerts[c + 1 == end ? begin : c + 1]);
-                    edge(yzx(a), zxy(a), yzx(b), zxy(b));
+                    n = _mm_add_ps(n, _mm_mul_ps(_mm_sub_ps(yzx(a), yzx(b)), _mm_add_ps(zxy(a), zxy(b))));
                 }
+                n = _mm_and_ps(n, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0)));
             }
-            _mm_store_ps(faceNormals + 4 * std::size_t(f), _mm_and_ps(n, keepXyz));
+            _mm_store_ps(faceNormals + 4 * std::size_t(f), n);
         }
     } else {
         (void)p;
@@ -377,13 +413,24 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
         const auto [vBegin, vEnd] = share(only ? only->size() : surface_.vertexCount);
         if (vBegin == vEnd) return;
         constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead (all vertices)
-        const std::uint32_t prefetchEnd = !only && vertexOffsets[vEnd] > kAhead ? vertexOffsets[vEnd] - kAhead : 0;
+        const std::uint32_t prefetchEnd =
+            prefetchNormals_ && !only && vertexOffsets[vEnd] > kAhead ? vertexOffsets[vEnd] - kAhead : 0;
+        auto faceNormal = [&](std::uint32_t j) {
+            if (j < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[j + kAhead]));
+            return _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[j]));
+        };
         for (std::uint32_t i = std::uint32_t(vBegin); i < std::uint32_t(vEnd); ++i) {
             const std::uint32_t v = only ? (*only)[i] : i;
+            const std::uint32_t begin = vertexOffsets[v], end = vertexOffsets[v + 1];
             __m128 n = _mm_setzero_ps();
-            for (std::uint32_t j = vertexOffsets[v], end = vertexOffsets[v + 1]; j < end; ++j) {
-                if (j < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[j + kAhead]));
-                n = _mm_add_ps(n, _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[j])));
+            if (end - begin == 4) {
+                // Four faces (most vertices of a quad mesh), unrolled: no loop exit to predict;
+                // normals 15-20% faster on the cow at 7 steps. The same sums in the same order.
+                const __m128 n0 = faceNormal(begin), n1 = faceNormal(begin + 1);
+                const __m128 n2 = faceNormal(begin + 2), n3 = faceNormal(begin + 3);
+                n = _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(n, n0), n1), n2), n3);
+            } else {
+                for (std::uint32_t j = begin; j < end; ++j) n = _mm_add_ps(n, faceNormal(j));
             }
             alignas(16) float s[4];
             _mm_store_ps(s, n);

@@ -441,6 +441,23 @@ TEST(Evaluator, FloatNormalsAreBitIdenticalToTheDefinition) {
             }
         }
     }
+    // The tiled form's evaluator (its surface in drawing order; its passes prefetch nothing).
+    const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    for (const std::uint32_t width : {3u, 4u}) {
+        std::mt19937 random(13);
+        std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+        std::vector<float> positions(std::size_t(tiled.surface.vertexCount) * width);
+        for (float& x : positions) x = uniform(random);
+        const std::vector<float> expected = referenceNormals(tiled.surface, positions, width);
+        for (const int threads : {1, 2}) {
+            CpuEvaluator<float> evaluator(tiled, width, threads);
+            std::vector<float> normals(expected.size(), -7.0f);
+            evaluator.normals(positions, normals);
+            for (std::size_t i = 0; i < normals.size(); ++i)
+                ASSERT_EQ(std::bit_cast<std::uint32_t>(normals[i]), std::bit_cast<std::uint32_t>(expected[i]))
+                    << "tiled form, width " << width << ", threads " << threads << ", value " << i;
+        }
+    }
 }
 
 TEST(Evaluator, RefineFacadeBuildsWhatTheEvaluatorNeeds) {
