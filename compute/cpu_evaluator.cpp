@@ -22,6 +22,8 @@ constexpr bool kSimd = true;  // float normals through SSE (every x86-64)
 constexpr bool kSimd = false;
 #endif
 
+constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate level (allocate)
+
 // This thread's share [begin, end) of `rows` rows.
 std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
     const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
@@ -59,18 +61,19 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
 // 5.4-5.7 (its range gives one thread most face points, the other most vertex points).
 template <class T>
 void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
-                        T* destination) {
+                        T* destination, bool sourcePadded) {
     const StencilLevel& level = table.levels[k];
     const bool regionShares = (table.regions > 1 && k < table.regionLevels) || k >= table.walkFrom;
     if (!regionShares || omp_get_num_threads() == 1) {
         const auto [begin, end] = shareByWork(table, level);
-        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end);
+        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end, sourcePadded);
     }
     for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
         const RowGroup& group = table.groups[g];
         const auto [begin, end] = share(group.rowCount);
         const std::uint64_t first = group.rowBegin - level.rowBegin;
-        if (begin < end) evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end);
+        if (begin < end)
+            evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, sourcePadded);
     }
 }
 
@@ -137,7 +140,9 @@ void CpuEvaluator<T>::allocate() {
     std::uint64_t total = 0;
     for (std::size_t k = 0; k + 1 < perLevel.levels.size(); ++k) {
         levelBase_.push_back(total);
-        total += std::uint64_t(perLevel.levels[k].destinationCount) * width;
+        // Each level followed by kLevelPadding values no one writes: the rows read every vertex
+        // of the level 16 bytes at a time, the last one's too (evaluateLevelRows's sourcePadded).
+        total += std::uint64_t(perLevel.levels[k].destinationCount) * width + kLevelPadding;
     }
     if (form_ != TableForm::Factorized) levels_.resize(total);
     faceNormals_.resize(4 * (surface.faceOffsets.size() - 1));  // padded to 4: one aligned load each
@@ -171,7 +176,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        evaluateLevelShare(perLevel_, k, source, packed, destination);
+        evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0);
 #pragma omp barrier
     }
 }
@@ -206,7 +211,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            evaluateLevelShare(perLevel_, k, source, packed, destination);
+            evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0);
 #pragma omp barrier
         }
         T* scratch = threadScratch<T>(scratchSize);

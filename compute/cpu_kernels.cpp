@@ -58,8 +58,9 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
 // each lane doing applyGroup's operations in its order (the weight-1 products are exact), so
 // the results are bit-identical. A 16-byte load reads one value past the vertex: past the
 // buffer only for the parent level's last vertex of a packed buffer, which is loaded value
-// by value.
-template <int N, int M>
+// by value, unless the buffer has room past it (`Padded3`: packed, readable past the end), when
+// no load is tested and the stride is known.
+template <int N, int M, bool Padded3>
 void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                     const float* source, BufferLayout sl, std::uint32_t sourceCount, float* destination,
                     BufferLayout dl, bool ascending) {
@@ -71,6 +72,7 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     const float* base = source + sl.offset;
     const std::size_t stride = sl.stride;
     auto load = [&](std::uint32_t i) {
+        if constexpr (Padded3) return _mm_loadu_ps(source + 3 * std::size_t(i));
         const float* q = base + std::size_t(i) * stride;
         if (i < wide) [[likely]]
             return _mm_loadu_ps(q);
@@ -117,11 +119,14 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
 template <class T, int W>
 void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                           const T* source, BufferLayout sl, std::uint32_t sourceCount, T* destination,
-                          BufferLayout dl, [[maybe_unused]] bool ascending) {
+                          BufferLayout dl, [[maybe_unused]] bool ascending, [[maybe_unused]] bool sourcePadded) {
 #if defined(__SSE2__)
     if constexpr (std::is_same_v<T, float> && W == 3) {
+        // A third fewer instructions a row without the test per load (the cow's rows at 7 steps).
+        const bool padded3 = sourcePadded && sl.offset == 0 && sl.stride == 3;
         const auto apply = [&]<int N, int M>() {
-            applyGroupSse3<N, M>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+            if (padded3) return applyGroupSse3<N, M, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+            applyGroupSse3<N, M, false>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
         };
         if (g.n == 3 && g.m == 0) return apply.template operator()<3, 0>();
         if (g.n == 4 && g.m == 4) return apply.template operator()<4, 4>();
@@ -144,7 +149,7 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
 template <class T, int W>
 void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* source,
                BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
-               std::uint64_t rowEnd) {
+               std::uint64_t rowEnd, bool sourcePadded) {
     // A region-ordered table's last level ordered (its numbering kept) lists each group's rows
     // by region, not by destination.
     const bool ascending = table.regions == 1 || &level != &table.levels[table.regionLevels - 1];
@@ -154,7 +159,7 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
         if (begin < end)
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
-                                       destination, dl, ascending);
+                                       destination, dl, ascending, sourcePadded);
     }
 }
 
@@ -189,12 +194,12 @@ void factorizedRows(const FactorizedTable& table, const T* source, BufferLayout 
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
-                       std::uint64_t rowEnd) {
+                       std::uint64_t rowEnd, bool sourcePadded) {
     assert(sl.valid() && dl.valid() && sl.length == dl.length && level < table.levels.size());
     const StencilLevel& l = table.levels[level];
-    if (sl.length == 3) return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd);
-    if (sl.length == 4) return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd);
-    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd);
+    if (sl.length == 3) return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded);
+    if (sl.length == 4) return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded);
+    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded);
 }
 
 template <class T>
@@ -208,9 +213,9 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source, Buffe
 }
 
 template void evaluateLevelRows<float>(const PerLevelTable&, std::size_t, const float*, BufferLayout,
-                                       float*, BufferLayout, std::uint64_t, std::uint64_t);
+                                       float*, BufferLayout, std::uint64_t, std::uint64_t, bool);
 template void evaluateLevelRows<double>(const PerLevelTable&, std::size_t, const double*, BufferLayout,
-                                        double*, BufferLayout, std::uint64_t, std::uint64_t);
+                                        double*, BufferLayout, std::uint64_t, std::uint64_t, bool);
 template void evaluateFactorizedRows<float>(const FactorizedTable&, const float*, BufferLayout, float*,
                                             BufferLayout, std::uint32_t, std::uint32_t);
 template void evaluateFactorizedRows<double>(const FactorizedTable&, const double*, BufferLayout,

@@ -179,6 +179,30 @@ TEST(Stencils, EveryLevelWritesEachDestinationOnce) {
     }
 }
 
+// A source with room past its last vertex (the evaluator's own levels) is read 16 bytes a
+// vertex without a test; the rows give the same bits as from an exactly sized source, every
+// level of the cow at 3 steps, the last vertex included.
+TEST(Evaluator, RowsFromAPaddedSourceAreTheSameBits) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    const BufferLayout packed{0, 3, 3};
+    std::mt19937 random(3);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (std::size_t k = 0; k < r.perLevel.levels.size(); ++k) {
+        const StencilLevel& level = r.perLevel.levels[k];
+        std::vector<float> exact(3 * std::size_t(level.sourceCount));
+        for (float& x : exact) x = uniform(random);
+        std::vector<float> padded(exact);
+        padded.push_back(std::nanf(""));  // read into a lane no result uses
+        const std::uint64_t rows = level.rowEnd - level.rowBegin;
+        std::vector<float> expected(3 * std::size_t(level.destinationCount), -1), actual(expected.size(), -2);
+        evaluateLevelRows(r.perLevel, k, exact.data(), packed, expected.data(), packed, 0, rows, false);
+        evaluateLevelRows(r.perLevel, k, padded.data(), packed, actual.data(), packed, 0, rows, true);
+        for (std::size_t i = 0; i < expected.size(); ++i)
+            ASSERT_EQ(std::bit_cast<std::uint32_t>(actual[i]), std::bit_cast<std::uint32_t>(expected[i]))
+                << "level " << k << " value " << i;
+    }
+}
+
 TEST(Evaluator, RowRangesInPiecesEqualTheWhole) {
     const Refined r = refineModel(test::dataPath("spot_control_mesh.obj"), 2);
     const BufferLayout packed{0, 3, 3};
