@@ -356,14 +356,15 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
         constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
         const bool prefetch = prefetchNormals_;
         if (allQuads_ && !only && stride == 3 && fBegin < fEnd) {
-            // Every face, quads, a packed buffer (the common case, and a third faster on the cow
-            // at 7 steps than the general loop below): no test per load, the stride known. Only
-            // the faces around the last vertex (vertexFaces lists them in order) go through
-            // `load`, in sequence with the others.
-            auto quad = [&](std::uint32_t f) {
+            // Every face, quads, a packed buffer (the common case): no test per load, the stride
+            // known (the cow at 7 steps: normals 3.1-3.4 -> 2.7-2.8 ms). Only the faces around
+            // the last vertex (vertexFaces lists them in order) go through `load`, in sequence
+            // with the others.
+            auto quad = [&](std::uint32_t f, auto prefetching) {
                 const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
-                if (prefetch && f + kAhead < fEnd)
-                    for (int k = 0; k < 4; ++k) __builtin_prefetch(p + 3 * std::size_t(c[4 * kAhead + k]));
+                if constexpr (decltype(prefetching)::value)
+                    if (f + kAhead < fEnd)
+                        for (int k = 0; k < 4; ++k) __builtin_prefetch(p + 3 * std::size_t(c[4 * kAhead + k]));
                 const __m128 n = quadNormal(_mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
                                             _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3])));
                 _mm_store_ps(faceNormals + 4 * std::size_t(f), n);
@@ -373,7 +374,10 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
             std::uint32_t f = std::uint32_t(fBegin);
             for (const std::uint32_t* l = lastFaces;; ++l) {
                 const std::uint32_t stop = l == lastFacesEnd ? std::uint32_t(fEnd) : std::clamp(*l, f, std::uint32_t(fEnd));
-                for (; f < stop; ++f) quad(f);
+                if (prefetch)
+                    for (; f < stop; ++f) quad(f, std::true_type{});
+                else
+                    for (; f < stop; ++f) quad(f, std::false_type{});
                 if (l == lastFacesEnd) return;
                 if (f == *l && f < fEnd) {
                     const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
@@ -420,12 +424,14 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
         constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead (all vertices)
         const std::uint32_t prefetchEnd =
             prefetchNormals_ && !only && vertexOffsets[vEnd] > kAhead ? vertexOffsets[vEnd] - kAhead : 0;
-        auto faceNormal = [&](std::uint32_t j) {
-            if (j < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[j + kAhead]));
-            return _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[j]));
-        };
-        // The sum of vertex v's face normals, in table order.
-        auto faceSum = [&](std::uint32_t v) {
+        // The sum of vertex v's face normals, in table order; `prefetching` (a std::bool_constant)
+        // false compiles the prefetch test out.
+        auto faceSum = [&](std::uint32_t v, auto prefetching) {
+            auto faceNormal = [&](std::uint32_t j) {
+                if constexpr (decltype(prefetching)::value)
+                    if (j < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[j + kAhead]));
+                return _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[j]));
+            };
             const std::uint32_t begin = vertexOffsets[v], end = vertexOffsets[v + 1];
             __m128 n = _mm_setzero_ps();
             if (end - begin == 4) {
@@ -438,13 +444,14 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
             for (std::uint32_t j = begin; j < end; ++j) n = _mm_add_ps(n, faceNormal(j));
             return n;
         };
+        // Four vertices at a time: their sums transposed (x, y and z of the four in one register
+        // each), normalised side by side with the scalar operations in their order (one square
+        // root and one division for four), and written as 48 bytes.
         std::uint32_t i = std::uint32_t(vBegin);
-        if (!only) {
-            // Four vertices at a time: their sums transposed (x, y and z of the four in one
-            // register each), normalised side by side with the scalar operations in their order
-            // (one square root and one division for four), and written as 48 bytes.
+        auto fourAtATime = [&](auto prefetching) {
             for (; i + 4 <= std::uint32_t(vEnd); i += 4) {
-                __m128 x = faceSum(i), y = faceSum(i + 1), z = faceSum(i + 2), w = faceSum(i + 3);
+                __m128 x = faceSum(i, prefetching), y = faceSum(i + 1, prefetching);
+                __m128 z = faceSum(i + 2, prefetching), w = faceSum(i + 3, prefetching);
                 _MM_TRANSPOSE4_PS(x, y, z, w);
                 const __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
                 const __m128 scale = _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), length), _mm_cmpgt_ps(length, _mm_setzero_ps()));
@@ -462,11 +469,13 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
                 _mm_storeu_ps(o + 4, _mm_shuffle_ps(y1z1, xy23, _MM_SHUFFLE(1, 0, 2, 0)));
                 _mm_storeu_ps(o + 8, _mm_shuffle_ps(z2x3, y3z3, _MM_SHUFFLE(2, 0, 2, 0)));
             }
-        }
+        };
+        if (!only && prefetchEnd > 0) fourAtATime(std::true_type{});
+        if (!only && prefetchEnd == 0) fourAtATime(std::false_type{});
         // The rest (a listed vertex, or the last few of this thread's share) one by one.
         for (; i < std::uint32_t(vEnd); ++i) {
             const std::uint32_t v = only ? (*only)[i] : i;
-            const __m128 n = faceSum(v);
+            const __m128 n = faceSum(v, std::true_type{});
             alignas(16) float s[4];
             _mm_store_ps(s, n);
             const float length = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
