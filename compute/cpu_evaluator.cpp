@@ -355,11 +355,10 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
         const auto [fBegin, fEnd] = share(faces);
         constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
         const bool prefetch = prefetchNormals_;
-        if (allQuads_ && !only && stride == 3 && fBegin < fEnd) {
-            // Every face, quads, a packed buffer (the common case): no test per load, the stride
-            // known (the cow at 7 steps: normals 3.1-3.4 -> 2.7-2.8 ms). Only the faces around
-            // the last vertex (vertexFaces lists them in order) go through `load`, in sequence
-            // with the others.
+        if (allQuads_ && stride == 3 && fBegin < fEnd) {
+            // Quads in a packed buffer (the common case): no test per load, the stride known (the
+            // cow at 7 steps: normals 3.1-3.4 -> 2.7-2.8 ms). Only the faces around the last
+            // vertex go through `load`.
             auto quad = [&](std::uint32_t f, auto prefetching) {
                 const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
                 if constexpr (decltype(prefetching)::value)
@@ -369,6 +368,23 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
                                             _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3])));
                 _mm_store_ps(faceNormals + 4 * std::size_t(f), n);
             };
+            if (only) {
+                // Listed faces (the tiled form's rest): a face is tested, all four corners at
+                // once, for the last vertex.
+                const __m128i lastVertex = _mm_set1_epi32(int(last));
+                for (std::uint32_t i = std::uint32_t(fBegin); i < std::uint32_t(fEnd); ++i) {
+                    const std::uint32_t f = (*only)[i];
+                    const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
+                    const __m128i corners = _mm_loadu_si128(reinterpret_cast<const __m128i*>(c));
+                    if (_mm_movemask_epi8(_mm_cmpeq_epi32(corners, lastVertex)) == 0) [[likely]]
+                        quad(f, std::false_type{});
+                    else
+                        _mm_store_ps(faceNormals + 4 * std::size_t(f), quadNormal(load(c[0]), load(c[1]), load(c[2]), load(c[3])));
+                }
+                return;
+            }
+            // Every face: those around the last vertex (vertexFaces lists them in order) in
+            // sequence with the others, no test per face.
             const std::uint32_t* lastFaces = surface_.vertexFaces.data() + surface_.vertexOffsets[last];
             const std::uint32_t* lastFacesEnd = surface_.vertexFaces.data() + surface_.vertexOffsets[last + 1];
             std::uint32_t f = std::uint32_t(fBegin);
@@ -444,20 +460,28 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
             for (std::uint32_t j = begin; j < end; ++j) n = _mm_add_ps(n, faceNormal(j));
             return n;
         };
-        // Four vertices at a time: their sums transposed (x, y and z of the four in one register
-        // each), normalised side by side with the scalar operations in their order (one square
-        // root and one division for four), and written as 48 bytes.
+        // Four sums normalised side by side, transposed (x, y and z of the four in one register
+        // each), with the scalar operations in their order: one square root and one division for
+        // four.
+        auto normaliseFour = [](__m128& x, __m128& y, __m128& z, __m128& w) {
+            _MM_TRANSPOSE4_PS(x, y, z, w);
+            const __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
+            const __m128 scale = _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), length), _mm_cmpgt_ps(length, _mm_setzero_ps()));
+            x = _mm_mul_ps(x, scale);
+            y = _mm_mul_ps(y, scale);
+            z = _mm_mul_ps(z, scale);
+        };
+        auto store3 = [](float* o, __m128 unit) {
+            _mm_storel_pi(reinterpret_cast<__m64*>(o), unit);
+            _mm_store_ss(o + 2, _mm_movehl_ps(unit, unit));
+        };
         std::uint32_t i = std::uint32_t(vBegin);
+        // Four consecutive vertices: written as 48 bytes.
         auto fourAtATime = [&](auto prefetching) {
             for (; i + 4 <= std::uint32_t(vEnd); i += 4) {
                 __m128 x = faceSum(i, prefetching), y = faceSum(i + 1, prefetching);
                 __m128 z = faceSum(i + 2, prefetching), w = faceSum(i + 3, prefetching);
-                _MM_TRANSPOSE4_PS(x, y, z, w);
-                const __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
-                const __m128 scale = _mm_and_ps(_mm_div_ps(_mm_set1_ps(1.0f), length), _mm_cmpgt_ps(length, _mm_setzero_ps()));
-                x = _mm_mul_ps(x, scale);
-                y = _mm_mul_ps(y, scale);
-                z = _mm_mul_ps(z, scale);
+                normaliseFour(x, y, z, w);
                 // x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3
                 const __m128 xy01 = _mm_unpacklo_ps(x, y), xy23 = _mm_unpackhi_ps(x, y);
                 const __m128 z0x1 = _mm_shuffle_ps(z, xy01, _MM_SHUFFLE(2, 2, 0, 0));
@@ -472,6 +496,19 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
         };
         if (!only && prefetchEnd > 0) fourAtATime(std::true_type{});
         if (!only && prefetchEnd == 0) fourAtATime(std::false_type{});
+        // Four listed vertices (no prefetches: prefetchEnd is 0): transposed back, one a register.
+        for (; only && i + 4 <= std::uint32_t(vEnd); i += 4) {
+            const std::uint32_t* v = only->data() + i;
+            __m128 x = faceSum(v[0], std::false_type{}), y = faceSum(v[1], std::false_type{});
+            __m128 z = faceSum(v[2], std::false_type{}), w = faceSum(v[3], std::false_type{});
+            normaliseFour(x, y, z, w);
+            w = _mm_setzero_ps();
+            _MM_TRANSPOSE4_PS(x, y, z, w);
+            store3(out + 3 * std::size_t(v[0]), x);
+            store3(out + 3 * std::size_t(v[1]), y);
+            store3(out + 3 * std::size_t(v[2]), z);
+            store3(out + 3 * std::size_t(v[3]), w);
+        }
         // The rest (a listed vertex, or the last few of this thread's share) one by one.
         for (; i < std::uint32_t(vEnd); ++i) {
             const std::uint32_t v = only ? (*only)[i] : i;
@@ -480,10 +517,7 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
             _mm_store_ps(s, n);
             const float length = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
             const float scale = length > 0 ? 1 / length : 0;
-            const __m128 unit = _mm_mul_ps(n, _mm_set1_ps(scale));
-            float* o = out + 3 * std::size_t(v);
-            _mm_storel_pi(reinterpret_cast<__m64*>(o), unit);
-            _mm_store_ss(o + 2, _mm_movehl_ps(unit, unit));
+            store3(out + 3 * std::size_t(v), _mm_mul_ps(n, _mm_set1_ps(scale)));
         }
     } else {
         (void)out;
