@@ -236,9 +236,11 @@ TEST(Tiled, DrawingOrderIsAPermutation) {
 // The fallback's points in walk order (docs/tiled.md, "Output order"): on the cow (no tile: all
 // fallback) a finest face's corners lie close in drawing order, where in canonical order they
 // lie far apart (corners from every level); every level's rows still ascend by destination
-// within each group (what the CPU kernel's consecutive-store path relies on), with tiles too
-// (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the same values,
-// on one thread and on two (each level split in even shares of every group from walkFrom on).
+// within each group (what the CPU kernel's consecutive-store path relies on), and every group
+// of the walk-ordered intermediate levels writes consecutive points (groupLevelPoints), with
+// tiles too (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the
+// same values, on one thread and on two (each level split in even shares of every group from
+// walkFrom on).
 TEST(Tiled, TheFallbackIsInWalkOrder) {
     const test::Loaded cow = test::load(test::dataPath("cow.obj"));
     const Hierarchy h = test::refine(cow, 5);
