@@ -352,7 +352,10 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
         float* faceNormals = faceNormals_.data();
         const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
         const std::uint32_t* faceVerts = surface_.faceVerts.data();
-        const auto [fBegin, fEnd] = share(faces);
+        // Plain variables, not a structured binding: the lambdas below use them, and clang
+        // before 16 refuses a lambda that captures a binding.
+        const std::pair<std::uint64_t, std::uint64_t> faceShare = share(faces);
+        const std::uint64_t fBegin = faceShare.first, fEnd = faceShare.second;
         constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
         const bool prefetch = prefetchNormals_;
         if (allQuads_ && stride == 3 && fBegin < fEnd) {
@@ -435,7 +438,9 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
         const float* faceNormals = faceNormals_.data();
         const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
         const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
-        const auto [vBegin, vEnd] = share(only ? only->size() : surface_.vertexCount);
+        // Plain variables for the lambdas below (as in the face pass).
+        const std::pair<std::uint64_t, std::uint64_t> vertexShare = share(only ? only->size() : surface_.vertexCount);
+        const std::uint64_t vBegin = vertexShare.first, vEnd = vertexShare.second;
         if (vBegin == vEnd) return;
         constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead (all vertices)
         const std::uint32_t prefetchEnd =
