@@ -41,6 +41,7 @@ struct TestMesh {
         const CheckedMesh checked = checkMesh(mesh);
         RefineOptions refineOptions;
         refineOptions.levels = options.psSteps;
+        refineOptions.vertexRowsFromFacePoints = false;  // measure() sets the vertex rows' weights
         refinement = refine(mesh, checked.connectivity, refineOptions);
         psFaces.vertexCount = refinement.surface.vertexCount;
         psFaces.offsets = refinement.surface.faceOffsets;

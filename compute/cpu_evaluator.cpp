@@ -30,51 +30,80 @@ std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
     return {rows * t / n, rows * (t + 1) / n};
 }
 
-// This thread's share of a level's rows, balanced by work (source indices plus the write)
-// rather than by row count: a level's face rows are far cheaper than its vertex rows.
-std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, const StencilLevel& level) {
+// This thread's share of groups [groupBegin, groupEnd) of a level's rows (their rows within the
+// level), balanced by work (source indices plus the write) rather than by row count: a level's
+// face rows are far cheaper than its vertex rows.
+std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, const StencilLevel& level,
+                                                    std::uint64_t groupBegin, std::uint64_t groupEnd) {
     const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
-    if (n == 1) return {0, level.rowEnd - level.rowBegin};
+    if (groupBegin == groupEnd) return {0, 0};
+    const std::uint64_t first = table.groups[groupBegin].rowBegin - level.rowBegin;
+    const RowGroup& lastGroup = table.groups[groupEnd - 1];
+    const std::uint64_t last = lastGroup.rowBegin + lastGroup.rowCount - level.rowBegin;
+    if (n == 1) return {first, last};
     std::uint64_t total = 0;
-    for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g)
-        total += table.groups[g].rowCount * (table.groups[g].width + 2);
+    for (std::uint64_t g = groupBegin; g < groupEnd; ++g) total += table.groups[g].rowCount * (table.groups[g].width + 2);
     // The row at which cumulative work reaches `target`.
     auto rowAt = [&](std::uint64_t target) {
         std::uint64_t work = 0;
-        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+        for (std::uint64_t g = groupBegin; g < groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
             const std::uint64_t cost = group.width + 2, groupWork = group.rowCount * cost;
             if (work + groupWork >= target)
                 return group.rowBegin - level.rowBegin + (target - work + cost - 1) / cost;
             work += groupWork;
         }
-        return level.rowEnd - level.rowBegin;
+        return last;
     };
-    return {t == 0 ? 0 : rowAt(total * t / n), t + 1 == n ? level.rowEnd - level.rowBegin : rowAt(total * (t + 1) / n)};
+    return {t == 0 ? first : rowAt(total * t / n), t + 1 == n ? last : rowAt(total * (t + 1) / n)};
 }
 
-// This thread's rows of level k, from `source` into `destination`: an even share of every row
-// group on the table's region-ordered and walk-ordered levels (each thread one region of the
-// mesh at each level, reading mostly its own writes: docs/design.md, "Threads and regions"; a
-// group's rows have one shape, so equal counts are equal work), else shareByWork's one range.
-// On the cow at 7 steps in walk order the even shares took 4.0-4.2 ms a frame, shareByWork's
-// 5.4-5.7 (its range gives one thread most face points, the other most vertex points).
+// The first of a level's VertexFromFacePoints groups (its last ones), or groupEnd: the rows
+// from there read the points the level's other rows write.
+std::uint64_t facePointGroupsBegin(const PerLevelTable& table, const StencilLevel& level) {
+    std::uint64_t g = level.groupEnd;
+    while (g > level.groupBegin && table.groups[g - 1].kind == RowKind::VertexFromFacePoints) --g;
+    return g;
+}
+
+// This thread's rows of groups [groupBegin, groupEnd) of level k, from `source` into
+// `destination`: an even share of every row group on the table's region-ordered and
+// walk-ordered levels (each thread one region of the mesh at each level, reading mostly its own
+// writes: docs/design.md, "Threads and regions"; a group's rows have one shape, so equal counts
+// are equal work), else shareByWork's one range. On the cow at 7 steps in walk order the even
+// shares took 4.0-4.2 ms a frame, shareByWork's 5.4-5.7 (its range gives one thread most face
+// points, the other most vertex points).
 template <class T>
-void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
-                        T* destination, bool sourcePadded) {
+void evaluateGroupsShare(const PerLevelTable& table, std::size_t k, std::uint64_t groupBegin, std::uint64_t groupEnd,
+                         const T* source, BufferLayout layout, T* destination, bool sourcePadded, bool destinationPadded) {
     const StencilLevel& level = table.levels[k];
     const bool regionShares = (table.regions > 1 && k < table.regionLevels) || k >= table.walkFrom;
     if (!regionShares || omp_get_num_threads() == 1) {
-        const auto [begin, end] = shareByWork(table, level);
-        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end, sourcePadded);
+        const auto [begin, end] = shareByWork(table, level, groupBegin, groupEnd);
+        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end, sourcePadded,
+                                 destinationPadded);
     }
-    for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+    for (std::uint64_t g = groupBegin; g < groupEnd; ++g) {
         const RowGroup& group = table.groups[g];
         const auto [begin, end] = share(group.rowCount);
         const std::uint64_t first = group.rowBegin - level.rowBegin;
         if (begin < end)
-            evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, sourcePadded);
+            evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, sourcePadded,
+                              destinationPadded);
     }
+}
+
+// This thread's rows of level k: the rows that read the parent level, then (after a barrier:
+// other threads' face points) the VertexFromFacePoints rows, which read the level's own points.
+template <class T>
+void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
+                        T* destination, bool sourcePadded, bool destinationPadded) {
+    const StencilLevel& level = table.levels[k];
+    const std::uint64_t split = facePointGroupsBegin(table, level);
+    evaluateGroupsShare(table, k, level.groupBegin, split, source, layout, destination, sourcePadded, destinationPadded);
+    if (split == level.groupEnd) return;
+#pragma omp barrier
+    evaluateGroupsShare(table, k, split, level.groupEnd, source, layout, destination, sourcePadded, destinationPadded);
 }
 
 // Threads worth starting for `values` output values: a parallel region and its barriers cost
@@ -176,7 +205,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0);
+        evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels);
 #pragma omp barrier
     }
 }
@@ -211,7 +240,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0);
+            evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels);
 #pragma omp barrier
         }
         T* scratch = threadScratch<T>(scratchSize);

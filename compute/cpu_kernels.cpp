@@ -149,7 +149,7 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
 template <class T, int W>
 void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* source,
                BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
-               std::uint64_t rowEnd, bool sourcePadded) {
+               std::uint64_t rowEnd, bool sourcePadded, bool destinationPadded) {
     // A region-ordered table's last level ordered (its numbering kept) lists each group's rows
     // by region, not by destination.
     const bool ascending = table.regions == 1 || &level != &table.levels[table.regionLevels - 1];
@@ -157,7 +157,11 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const RowGroup& g = table.groups[gi];
         const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
-        if (begin < end)
+        if (begin >= end) continue;
+        if (g.kind == RowKind::VertexFromFacePoints)  // reads the level's own face points
+            applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, destination, dl, level.destinationCount,
+                                       destination, dl, ascending, destinationPadded);
+        else
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
                                        destination, dl, ascending, sourcePadded);
     }
@@ -194,12 +198,14 @@ void factorizedRows(const FactorizedTable& table, const T* source, BufferLayout 
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
-                       std::uint64_t rowEnd, bool sourcePadded) {
+                       std::uint64_t rowEnd, bool sourcePadded, bool destinationPadded) {
     assert(sl.valid() && dl.valid() && sl.length == dl.length && level < table.levels.size());
     const StencilLevel& l = table.levels[level];
-    if (sl.length == 3) return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded);
-    if (sl.length == 4) return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded);
-    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded);
+    if (sl.length == 3)
+        return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded, destinationPadded);
+    if (sl.length == 4)
+        return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded, destinationPadded);
+    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded, destinationPadded);
 }
 
 template <class T>
@@ -213,9 +219,9 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source, Buffe
 }
 
 template void evaluateLevelRows<float>(const PerLevelTable&, std::size_t, const float*, BufferLayout,
-                                       float*, BufferLayout, std::uint64_t, std::uint64_t, bool);
+                                       float*, BufferLayout, std::uint64_t, std::uint64_t, bool, bool);
 template void evaluateLevelRows<double>(const PerLevelTable&, std::size_t, const double*, BufferLayout,
-                                        double*, BufferLayout, std::uint64_t, std::uint64_t, bool);
+                                        double*, BufferLayout, std::uint64_t, std::uint64_t, bool, bool);
 template void evaluateFactorizedRows<float>(const FactorizedTable&, const float*, BufferLayout, float*,
                                             BufferLayout, std::uint32_t, std::uint32_t);
 template void evaluateFactorizedRows<double>(const FactorizedTable&, const double*, BufferLayout,

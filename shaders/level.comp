@@ -6,7 +6,8 @@
 // multiple of 4 (one uvec4 fetch per 4 words). The common shapes are compiled in
 // (PSUB_SPEC_ROW_N/M): their loops unroll and the words are fetched up front. Same arithmetic,
 // in the same order, as the CPU kernel (psub/evaluator.h), with no contraction into fused
-// multiply-adds.
+// multiply-adds. A VertexFromFacePoints group's sources are points of the level it writes (its
+// dispatch binds that level as the source too, after a barrier: docs/design.md).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 

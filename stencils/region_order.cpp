@@ -20,6 +20,10 @@ namespace {
 
 constexpr std::uint32_t kNone = ~0u;
 
+// Whether a group's rows read the points of their own level (written by the level's earlier
+// groups), not of the level before.
+bool readsChild(const RowGroup& group) { return group.kind == RowKind::VertexFromFacePoints; }
+
 // Breadth-first ranks of the control points, over the pairs each level-0 row joins (its first
 // source with each other one); each connected component's points follow one another.
 std::vector<std::uint32_t> breadthFirstRanks(const PerLevelTable& table) {
@@ -28,6 +32,7 @@ std::vector<std::uint32_t> breadthFirstRanks(const PerLevelTable& table) {
     const auto forEachPair = [&](auto&& visit) {
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
+            if (readsChild(group)) continue;  // its sources are no control points
             for (std::uint64_t r = 0; r < group.rowCount; ++r) {
                 const std::uint32_t* ix = table.indices.data() + group.indexBegin + r * group.width;
                 for (std::uint32_t j = 1; j < group.width; ++j)
@@ -56,7 +61,8 @@ std::vector<std::uint32_t> breadthFirstRanks(const PerLevelTable& table) {
     return ranks;
 }
 
-// Every source of every row names a point of the level before (the ranks index by it).
+// Every source of every row names a point of the level before (the ranks index by it), or of
+// its own level for readsChild groups.
 void checkSources(const PerLevelTable& table) {
     std::uint32_t sourceCount = table.controlCount;
     for (const StencilLevel& level : table.levels) {
@@ -64,7 +70,8 @@ void checkSources(const PerLevelTable& table) {
             const RowGroup& group = table.groups[g];
             const auto begin = table.indices.begin() + std::ptrdiff_t(group.indexBegin);
             const auto end = begin + std::ptrdiff_t(group.rowCount * group.width);
-            if (std::any_of(begin, end, [&](std::uint32_t s) { return s >= sourceCount; }))
+            const std::uint32_t count = readsChild(group) ? level.destinationCount : sourceCount;
+            if (std::any_of(begin, end, [&](std::uint32_t s) { return s >= count; }))
                 throw std::invalid_argument("orderLevelsByRegion: a row names a point its level does not have");
             for (std::uint64_t r = 0; r < group.rowCount; ++r)
                 if (table.destinations[group.rowBegin + r] >= level.destinationCount)
@@ -94,11 +101,11 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
         const StencilLevel& level = table.levels[k];
         const bool finest = k + 1 == levelCount;  // the last level ordered: its numbers kept
         nextRegion.assign(level.destinationCount, regions - 1);  // a point no row writes: the last
-        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {  // readsChild groups last
             const RowGroup& group = table.groups[g];
+            const std::vector<std::uint32_t>& from = readsChild(group) ? nextRegion : region;
             for (std::uint64_t r = 0; r < group.rowCount; ++r)
-                nextRegion[table.destinations[group.rowBegin + r]] =
-                    region[table.indices[group.indexBegin + r * group.width]];
+                nextRegion[table.destinations[group.rowBegin + r]] = from[table.indices[group.indexBegin + r * group.width]];
         }
         // The child level's points by region, in their order within each; the last level ordered
         // keeps its numbering (the output order, or what later rows and other tables refer to).
@@ -127,11 +134,12 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
                                 table.indices.begin() + std::ptrdiff_t(group.indexBegin + group.rowCount * width));
             groupDestinations.assign(table.destinations.begin() + std::ptrdiff_t(rowBegin),
                                      table.destinations.begin() + std::ptrdiff_t(rowBegin + group.rowCount));
+            const std::vector<std::uint32_t>& sourcePosition = readsChild(group) ? nextPosition : position;
             for (std::uint64_t i = 0; i < group.rowCount; ++i) {
                 const std::uint64_t r = order[i];
                 table.destinations[rowBegin + i] = nextPosition[groupDestinations[r]];
                 for (std::uint64_t j = 0; j < width; ++j)
-                    table.indices[group.indexBegin + i * width + j] = position[groupIndices[r * width + j]];
+                    table.indices[group.indexBegin + i * width + j] = sourcePosition[groupIndices[r * width + j]];
             }
         }
         region.swap(nextRegion);

@@ -24,7 +24,8 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
     switch (kind) {
     case RowKind::FaceQuad:
     case RowKind::FaceTriangle:
-    case RowKind::FacePolygon: g.centre = g.edge = 1.0 / g.width; break;
+    case RowKind::FacePolygon:
+    case RowKind::VertexFromFacePoints: g.centre = g.edge = 1.0 / g.width; break;
     case RowKind::Retained: break;
     case RowKind::BoundaryVertex: std::tie(g.centre, g.edge) = std::tuple(0.75, 0.125); break;
     case RowKind::BoundaryEdge: g.centre = g.edge = 0.5; break;
@@ -368,6 +369,10 @@ SparseRows composeRows(const PerLevelTable& table, const std::vector<std::uint32
 }  // namespace
 
 FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel) {
+    for (const RowGroup& g : perLevel.groups)
+        if (g.kind == RowKind::VertexFromFacePoints)
+            throw std::invalid_argument("buildFactorizedTable: the table's vertex rows read face points "
+                                        "(vertexRowsFromFacePoints); compose the table as the rules built it");
     const std::uint32_t controls = perLevel.controlCount;
     SparseRows current;  // control -> current level; the identity to begin with
     current.offsets.resize(std::size_t(controls) + 1);
@@ -590,6 +595,14 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         start = Clock::now();
         out.factorized = buildFactorizedTable(out.perLevel);
         out.factorizedMs = ms(start);
+    }
+    if (options.vertexRowsFromFacePoints) {
+        start = Clock::now();
+        if (options.perLevel) vertexRowsFromFacePoints(out.perLevel);
+        out.perLevelMs += ms(start);
+        start = Clock::now();
+        if (options.tiled) vertexRowsFromFacePoints(out.tiled.rows);
+        out.tiledMs += ms(start);
     }
     return out;
 }

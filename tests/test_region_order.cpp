@@ -43,8 +43,10 @@ void expectATable(const PerLevelTable& table) {
             const RowGroup& group = table.groups[g];
             for (std::uint64_t r = 0; r < group.rowCount; ++r) {
                 ++written[table.destinations[group.rowBegin + r]];
+                const std::uint32_t count =
+                    group.kind == RowKind::VertexFromFacePoints ? level.destinationCount : sourceCount;
                 for (std::uint32_t j = 0; j < group.width; ++j)
-                    ASSERT_LT(table.indices[group.indexBegin + r * group.width + j], sourceCount);
+                    ASSERT_LT(table.indices[group.indexBegin + r * group.width + j], count);
             }
         }
         for (int count : written) ASSERT_EQ(count, 1);
@@ -55,9 +57,12 @@ void expectATable(const PerLevelTable& table) {
 TEST(RegionOrder, GivesTheSameBitsOnEveryModelBoundaryAndRuleSet) {
     for (const std::string& path : test::allValidModels())
         for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
-            for (Rules rules : {Rules::Paper, Rules::Shape}) {
-                SCOPED_TRACE(path + (boundary == Boundary::Smooth ? " smooth" : " paper") + " " + rulesName(rules));
-                const PerLevelTable table = tableOf(path, 3, boundary, rules);
+            for (Rules rules : {Rules::Paper, Rules::Shape})
+              for (bool facePoints : {false, true}) {  // as built, and with vertexRowsFromFacePoints
+                SCOPED_TRACE(path + (boundary == Boundary::Smooth ? " smooth" : " paper") + " " + rulesName(rules) +
+                             (facePoints ? " face points" : ""));
+                PerLevelTable table = tableOf(path, 3, boundary, rules);
+                if (facePoints) vertexRowsFromFacePoints(table);
                 const std::vector<double> control = test::load(path).mesh.positions;
                 const std::vector<float> expected = evaluated<float>(table, control, 1);
                 const std::vector<double> expectedDouble = evaluated<double>(table, control, 1);
@@ -83,7 +88,8 @@ TEST(RegionOrder, ThreadsOnALargeMeshGiveTheTablesBits) {
     for (const auto& [name, steps] : {std::pair{"spot_control_mesh.obj", 7}, std::pair{"cow.obj", 4}}) {
         SCOPED_TRACE(name);
         const std::string path = test::dataPath(name);
-        const PerLevelTable table = tableOf(path, steps);
+        PerLevelTable table = tableOf(path, steps);
+        ASSERT_GT(vertexRowsFromFacePoints(table), 0u);  // as refine() leaves it
         ASSERT_GE(6 * std::uint64_t(table.refinedCount()), 4u * 32768);  // so that 4 threads start
         std::vector<double> control = test::load(path).mesh.positions;
         for (std::size_t i = 0; i < control.size(); ++i) control[i] += 0.01 * std::sin(double(i));

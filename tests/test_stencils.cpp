@@ -184,19 +184,25 @@ TEST(Stencils, EveryLevelWritesEachDestinationOnce) {
 // level of the cow at 3 steps, the last vertex included.
 TEST(Evaluator, RowsFromAPaddedSourceAreTheSameBits) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    PerLevelTable facePoints = r.perLevel;  // whose vertex rows read the destination (padded too)
+    ASSERT_GT(vertexRowsFromFacePoints(facePoints), 0u);
     const BufferLayout packed{0, 3, 3};
     std::mt19937 random(3);
     std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-    for (std::size_t k = 0; k < r.perLevel.levels.size(); ++k) {
-        const StencilLevel& level = r.perLevel.levels[k];
+    for (const PerLevelTable* table : std::initializer_list<const PerLevelTable*>{&r.perLevel, &facePoints})
+    for (std::size_t k = 0; k < table->levels.size(); ++k) {
+        SCOPED_TRACE(table == &facePoints ? "vertex rows from face points" : "as built");
+        const StencilLevel& level = table->levels[k];
         std::vector<float> exact(3 * std::size_t(level.sourceCount));
         for (float& x : exact) x = uniform(random);
         std::vector<float> padded(exact);
         padded.push_back(std::nanf(""));  // read into a lane no result uses
         const std::uint64_t rows = level.rowEnd - level.rowBegin;
-        std::vector<float> expected(3 * std::size_t(level.destinationCount), -1), actual(expected.size(), -2);
-        evaluateLevelRows(r.perLevel, k, exact.data(), packed, expected.data(), packed, 0, rows, false);
-        evaluateLevelRows(r.perLevel, k, padded.data(), packed, actual.data(), packed, 0, rows, true);
+        std::vector<float> expected(3 * std::size_t(level.destinationCount), -1), actual(expected.size() + 1, -2);
+        actual.back() = std::nanf("");
+        evaluateLevelRows(*table, k, exact.data(), packed, expected.data(), packed, 0, rows, false, false);
+        evaluateLevelRows(*table, k, padded.data(), packed, actual.data(), packed, 0, rows, true, true);
+        ASSERT_TRUE(std::isnan(actual.back()));
         for (std::size_t i = 0; i < expected.size(); ++i)
             ASSERT_EQ(std::bit_cast<std::uint32_t>(actual[i]), std::bit_cast<std::uint32_t>(expected[i]))
                 << "level " << k << " value " << i;
@@ -278,11 +284,16 @@ TEST(Evaluator, StridedAndOffsetLayoutsReadAndWriteOnlyTheirSlots) {
 }
 
 TEST(Evaluator, ThreadsGiveBitIdenticalResults) {
-    const Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    Refined r = refineModel(test::dataPath("cow.obj"), 3);
     for (TableForm form : {TableForm::PerLevel, TableForm::Factorized}) {
         const auto one = evaluateWith<float>(r, form, r.loaded.mesh.positions, 1);
         for (int threads : {2, 3, 7}) EXPECT_EQ(one, evaluateWith<float>(r, form, r.loaded.mesh.positions, threads));
     }
+    // Vertex rows from face points: a second pass per level, after the face points' (a barrier).
+    r = refineModel(test::dataPath("cow.obj"), 5);
+    ASSERT_GT(vertexRowsFromFacePoints(r.perLevel), 0u);
+    const auto one = evaluateWith<float>(r, TableForm::PerLevel, r.loaded.mesh.positions, 1);
+    for (int threads : {2, 3, 7}) EXPECT_EQ(one, evaluateWith<float>(r, TableForm::PerLevel, r.loaded.mesh.positions, threads));
 }
 
 TEST(Evaluator, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {
@@ -337,11 +348,14 @@ void referenceLevel(const PerLevelTable& table, std::size_t k, const float* sour
     const StencilLevel& level = table.levels[k];
     for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
         const RowGroup& g = table.groups[gi];
+        const bool facePoints = g.kind == RowKind::VertexFromFacePoints;  // reads the level's own points
+        const float* from = facePoints ? destination : source;
+        const BufferLayout fl = facePoints ? dl : sl;
         for (std::uint64_t r = 0; r < g.rowCount; ++r) {
             const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
             float* out = destination + std::size_t(table.destinations[g.rowBegin + r]) * dl.stride + dl.offset;
             for (int i = 0; i < 3; ++i) {
-                auto at = [&](std::uint32_t j) { return source[std::size_t(ix[j]) * sl.stride + sl.offset + i]; };
+                auto at = [&](std::uint32_t j) { return from[std::size_t(ix[j]) * fl.stride + fl.offset + i]; };
                 float centre = 0, edges = 0, diagonals = 0;
                 centre += float(g.centre) * at(0);
                 for (std::uint32_t j = 1; j <= g.n; ++j) edges += at(j);
@@ -354,19 +368,23 @@ void referenceLevel(const PerLevelTable& table, std::size_t k, const float* sour
 
 TEST(Evaluator, FloatLevelRowsAreBitIdenticalToTheScalarDefinition) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    PerLevelTable facePoints = r.perLevel;
+    ASSERT_GT(vertexRowsFromFacePoints(facePoints), 0u);
     std::mt19937 random(7);
     std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (const PerLevelTable* table : std::initializer_list<const PerLevelTable*>{&r.perLevel, &facePoints})
     for (const BufferLayout layout : {BufferLayout{0, 3, 3}, BufferLayout{1, 3, 5}, BufferLayout{2, 3, 5}}) {
-        std::vector<float> source(std::size_t(r.perLevel.controlCount) * layout.stride);
+        SCOPED_TRACE(table == &facePoints ? "vertex rows from face points" : "as built");
+        std::vector<float> source(std::size_t(table->controlCount) * layout.stride);
         for (float& x : source) x = uniform(random);
-        for (std::size_t k = 0; k < r.perLevel.levels.size(); ++k) {
-            const StencilLevel& level = r.perLevel.levels[k];
+        for (std::size_t k = 0; k < table->levels.size(); ++k) {
+            const StencilLevel& level = table->levels[k];
             std::vector<float> actual(std::size_t(level.destinationCount) * layout.stride, -7.0f), expected = actual;
             const std::uint64_t rows = level.rowEnd - level.rowBegin;
             for (std::uint64_t piece = 0; piece < 3; ++piece)  // ranges ending mid-group
-                evaluateLevelRows(r.perLevel, k, source.data(), layout, actual.data(), layout, rows * piece / 3,
+                evaluateLevelRows(*table, k, source.data(), layout, actual.data(), layout, rows * piece / 3,
                                   rows * (piece + 1) / 3);
-            referenceLevel(r.perLevel, k, source.data(), layout, expected.data(), layout);
+            referenceLevel(*table, k, source.data(), layout, expected.data(), layout);
             for (std::size_t i = 0; i < actual.size(); ++i)
                 ASSERT_EQ(std::bit_cast<std::uint32_t>(actual[i]), std::bit_cast<std::uint32_t>(expected[i]))
                     << "level " << k << ", value " << i << ", stride " << layout.stride;

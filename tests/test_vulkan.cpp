@@ -199,6 +199,9 @@ TEST_F(Vulkan, SmoothBoundaryTablesMatchTheCpu) {
 TEST_F(Vulkan, PerLevelResultsAreBitIdenticalToTheCpu) {
     // Same operations in the same order, no fused multiply-adds: not just close, equal.
     const Tables t = tablesFor(test::dataPath("cow.obj"), 3);
+    // With refine()'s vertex rows from face points: a second stage per level, reading the first's.
+    ASSERT_TRUE(std::any_of(t.perLevel.groups.begin(), t.perLevel.groups.end(),
+                            [](const RowGroup& g) { return g.kind == RowKind::VertexFromFacePoints; }));
     CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3, 2);
     VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3);
     const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 1);

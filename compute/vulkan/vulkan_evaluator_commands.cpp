@@ -40,11 +40,14 @@ void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector
                 specialization.rowM = d.rowM;
                 vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->get(stage.kernel, specialization));
             }
-            // Chunks of one stage write disjoint rows but bind the same windows: order them too.
+            // Chunks of one stage write disjoint rows but bind the same windows: order them too
+            // (and their reads, where a stage reads the buffer it writes: face points, read by the
+            // VertexFromFacePoints rows).
             if (i > 0)
                 bufferBarrier(command, stage.written->buffer, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                               VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                              VK_ACCESS_SHADER_WRITE_BIT);
+                              d.source == stage.written ? VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT
+                                                        : VK_ACCESS_SHADER_WRITE_BIT);
             vkCmdBindDescriptorSets(command, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &d.set, 0, nullptr);
             vkCmdPushConstants(command, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants), &d.push);
             vkCmdDispatch(command, d.groupsX, d.groupsY, 1);

@@ -121,6 +121,7 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
         std::size_t level;
         Dispatch dispatch;
         std::uint64_t record, wordBegin, wordEnd;
+        bool readsChild;  // a VertexFromFacePoints group: reads the level it writes
     };
     std::vector<Pending> pending;
     for (std::size_t k = 0; k < table.levels.size(); ++k) {
@@ -134,7 +135,8 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             const auto chunks = split(
                 g.rowCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * stride * (b - a)); }, "per-level table");
             for (const auto& [a, b] : chunks) {
-                Pending p{k, dispatch(b - a), records.size(), groupWords + a * stride, groupWords + b * stride};
+                Pending p{k, dispatch(b - a), records.size(), groupWords + a * stride, groupWords + b * stride,
+                          g.kind == RowKind::VertexFromFacePoints};
                 p.dispatch.rowN = specialisedShape(g.n, g.m) ? g.n : kAnyShape;
                 p.dispatch.rowM = specialisedShape(g.n, g.m) ? g.m : kAnyShape;
                 const std::uint64_t wordFirst = p.wordBegin * 4 / alignment * alignment / 4;
@@ -161,29 +163,32 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
                 }
         },
         tables);
-    for (std::size_t k = 0; k < table.levels.size(); ++k) {
-        Stage stage;
-        stage.kernel = Kernel::Level;
-        stage.specialization = {width, levels[k].stride, levels[k + 1].stride, levels[k].windows > 1,
-                                levels[k + 1].windows > 1};
-        stage.written = &levels[k + 1];
-        for (Pending& p : pending) {
-            if (p.level != k) continue;
-            Dispatch& d = p.dispatch;
-            d.source = &levels[k];
-            d.destination = &levels[k + 1];
-            d.tables[0] = window(groups, sizeof(GroupRecord), p.record, p.record + 1);
-            d.tables[1] = window(rows, 4, p.wordBegin, p.wordEnd);
-            d.tables[2] = d.tables[1];
-            d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
-            d.push.groupBase = std::uint32_t(p.record - d.tables[0].firstElement);
-            d.push.groupCount = 1;
-            d.push.sourceWindowSize = levels[k].windowSize;
-            d.push.destinationWindowSize = levels[k + 1].windowSize;
-            stage.dispatches.push_back(d);
+    // Per level, a stage of the rows that read the parent level, then (after its barrier) one of
+    // the VertexFromFacePoints rows, which read the face points the first wrote.
+    for (std::size_t k = 0; k < table.levels.size(); ++k)
+        for (const bool readsChild : {false, true}) {
+            const VertexBuffer& from = levels[readsChild ? k + 1 : k];
+            Stage stage;
+            stage.kernel = Kernel::Level;
+            stage.specialization = {width, from.stride, levels[k + 1].stride, from.windows > 1, levels[k + 1].windows > 1};
+            stage.written = &levels[k + 1];
+            for (Pending& p : pending) {
+                if (p.level != k || p.readsChild != readsChild) continue;
+                Dispatch& d = p.dispatch;
+                d.source = &from;
+                d.destination = &levels[k + 1];
+                d.tables[0] = window(groups, sizeof(GroupRecord), p.record, p.record + 1);
+                d.tables[1] = window(rows, 4, p.wordBegin, p.wordEnd);
+                d.tables[2] = d.tables[1];
+                d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+                d.push.groupBase = std::uint32_t(p.record - d.tables[0].firstElement);
+                d.push.groupCount = 1;
+                d.push.sourceWindowSize = from.windowSize;
+                d.push.destinationWindowSize = levels[k + 1].windowSize;
+                stage.dispatches.push_back(d);
+            }
+            if (!stage.dispatches.empty()) stencilStages.push_back(std::move(stage));
         }
-        stencilStages.push_back(std::move(stage));
-    }
 }
 
 void VulkanEvaluator::Impl::buildFactorized(const FactorizedTable& table, Uploader& uploader) {

@@ -24,12 +24,15 @@ struct BufferLayout {
 
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
-// `sourcePadded`: at least one more value can be read past the source's last vertex (the
-// kernel then reads every vertex 16 bytes at a time, untested).
+// VertexFromFacePoints rows (a level's last groups) read `destination`: the level's rows before
+// them must have been written (on one thread, the rows in table order do that).
+// `sourcePadded` (`destinationPadded`): at least one more value can be read past the source's
+// (destination's) last vertex (the kernel then reads every vertex 16 bytes at a time, untested).
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sourceLayout, T* destination, BufferLayout destinationLayout,
-                       std::uint64_t rowBegin, std::uint64_t rowEnd, bool sourcePadded = false);
+                       std::uint64_t rowBegin, std::uint64_t rowEnd, bool sourcePadded = false,
+                       bool destinationPadded = false);
 
 // Rows [rowBegin, rowEnd) of a factorized table: `source` holds the control points,
 // `destination` the finest level's vertices.

@@ -27,6 +27,16 @@ FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel);
 
 SurfaceTable buildSurfaceTable(Faces finest);
 
+// Rewrites `table` so that every VertexQuad row of valence 4 with the paper's weights (1/4, 1/8,
+// 1/16), whose four faces all have FaceQuad rows in its level, becomes a VertexFromFacePoints
+// row: the mean of those four new face points. In real arithmetic the two are equal (the four
+// face points sum to (4 P + 2 sum(edges) + sum(diagonals)) / 4), in float within rounding; the
+// row reads 4 points instead of 9. Each level's rewritten rows keep their order, in one group
+// after the level's others. Returns how many rows were rewritten. refine() applies it to the
+// tables it returns unless RefineOptions::vertexRowsFromFacePoints is false (docs/design.md,
+// "Vertex points from face points"). std::invalid_argument on a table rewritten already.
+std::uint64_t vertexRowsFromFacePoints(PerLevelTable& table);
+
 // Cuts the control mesh into `regions` regions of about equal point counts (runs of a breadth-
 // first order) and gives every refined point its row's first source's region; then, in place,
 // orders the rows of the first `levelCount` levels (all by default) by region within each group
@@ -113,6 +123,10 @@ struct RefineOptions {
     bool perLevel = true;
     TileSides tileSides = TileSides::Cheapest;  // its tiles
     UvLinear uvLinear = UvLinear::Boundaries;  // the face-varying channel, when the mesh has one
+    // The per-level table and the tiled form's rows, once built, rewritten by
+    // vertexRowsFromFacePoints (fewer loads per frame); false keeps every row as the rules
+    // write it (for what reads or changes the rules' rows: psub analyze's weight experiments).
+    bool vertexRowsFromFacePoints = true;
 };
 
 // Everything the per-frame loop needs, and nothing of the topology.

@@ -25,11 +25,17 @@ enum class RowKind : std::uint8_t {
                          // then the m = 4 - k others; alpha / s and (1 - alpha) / 3 / s
     VertexBesideCorner,  // a regular vertex beside j input corners: P, the n = 4 - j other edge
                          // neighbours, the 4 diagonals; 1/4 + j (1/8 - beta), 1/8, 1/16 (beta = 0)
+    // A VertexQuad row of valence 4 rewritten (vertexRowsFromFacePoints, psub/stencils.h): the
+    // mean of the four new face points of its faces, 4 indices into the level's own (child)
+    // points, 1/4 each (n = 3, m = 0, as FaceQuad). Only as a level's last groups: the level's
+    // other rows write what these read.
+    VertexFromFacePoints,
 };
 
 // A run of rows of one kind and shape within one level. Row r of the group has `width`
 // = 1 + n + m source indices at indices[indexBegin + (r - rowBegin) * width]: the centre with
-// weight `centre`, then n with weight `edge`, then m with weight `diagonal`.
+// weight `centre`, then n with weight `edge`, then m with weight `diagonal`. The sources are
+// points of the parent level, except in VertexFromFacePoints groups (the child level's).
 struct RowGroup {
     RowKind kind;
     std::uint32_t n, m, width;

@@ -1,0 +1,149 @@
+// Tests of vertexRowsFromFacePoints (psub/stencils.h): a regular vertex row rewritten as the mean
+// of the four new face points around it gives the rules' values (hand-computed, and within
+// rounding of the rows as built on every model), reads only points its level writes, and is
+// applied by refine() to every table an evaluator runs.
+#include "psub/evaluator.h"
+#include "psub/stencils.h"
+#include "test_support.h"
+#include "tiled_options.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace psub {
+namespace {
+
+std::vector<double> evaluated(const PerLevelTable& table, const std::vector<double>& control) {
+    const FactorizedTable none;
+    const SurfaceTable surface;
+    CpuEvaluator<double> evaluator(table, none, surface, TableForm::PerLevel, 3, 1);
+    std::vector<double> out(3 * std::size_t(table.refinedCount()));
+    evaluator.evaluate(control, out);
+    return out;
+}
+
+std::uint64_t rowsOfKind(const PerLevelTable& table, RowKind kind, std::uint32_t n = ~0u) {
+    std::uint64_t rows = 0;
+    for (const RowGroup& g : table.groups)
+        if (g.kind == kind && (n == ~0u || g.n == n)) rows += g.rowCount;
+    return rows;
+}
+
+// Each level's VertexFromFacePoints rows come after its other groups and read only points that
+// the level's face rows write.
+void expectFacePointRowsReadFacePoints(const PerLevelTable& table) {
+    for (const StencilLevel& level : table.levels) {
+        std::vector<char> facePoint(level.destinationCount, 0);
+        bool seen = false;
+        for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+            const RowGroup& group = table.groups[g];
+            if (group.kind == RowKind::FaceQuad)
+                for (std::uint64_t r = 0; r < group.rowCount; ++r) facePoint[table.destinations[group.rowBegin + r]] = 1;
+            if (group.kind != RowKind::VertexFromFacePoints) {
+                ASSERT_FALSE(seen) << "a group after the level's face-point rows";
+                continue;
+            }
+            seen = true;
+            ASSERT_EQ(group.width, 4u);
+            for (std::uint64_t i = group.indexBegin; i < group.indexBegin + 4 * group.rowCount; ++i)
+                ASSERT_TRUE(facePoint[table.indices[i]]) << "reads point " << table.indices[i];
+        }
+    }
+}
+
+// A flat 4 x 4 grid whose centre is lifted by 16: after one step (by the rules, 1/4, 1/8, 1/16)
+// the centre's point has z = 4, its four edge neighbours' 2, its four diagonals' 1, the four
+// face points around the centre 4 (16 / 4), every other point 0. The rewritten rows (the nine
+// interior vertices) give exactly these values.
+TEST(FacePoints, ALiftedGridCentreIsHandComputed) {
+    const test::Loaded loaded = test::load(test::dataPath("grid4x4.obj"));
+    PerLevelTable table = buildPerLevelTable(test::refine(loaded, 1));
+    ASSERT_EQ(vertexRowsFromFacePoints(table), 9u);  // the 3 x 3 interior vertices
+    EXPECT_EQ(rowsOfKind(table, RowKind::VertexQuad), 0u);
+    expectFacePointRowsReadFacePoints(table);
+    std::vector<double> control = loaded.mesh.positions;
+    const auto at = [&](const std::vector<double>& p, std::size_t v, int axis) { return p[3 * v + std::size_t(axis)]; };
+    std::size_t centre = 0;
+    for (std::size_t v = 0; v < 25; ++v)
+        if (at(control, v, 0) == 2 && at(control, v, 1) == 2) centre = v;
+    control[3 * centre + 2] = 16;
+    const std::vector<double> out = evaluated(table, control);
+    const Faces& faces = loaded.mesh.faces;
+    for (std::size_t v = 0; v < 25; ++v) {
+        const double dx = std::abs(at(control, v, 0) - 2), dy = std::abs(at(control, v, 1) - 2);
+        const double expected = dx + dy == 0 ? 4 : dx + dy == 1 ? 2 : dx == 1 && dy == 1 ? 1 : 0;
+        EXPECT_EQ(at(out, v, 2), expected) << "vertex " << v;
+        EXPECT_EQ(at(out, v, 0), at(control, v, 0)) << "vertex " << v;  // a flat, even grid: x and y kept
+    }
+    for (Index f = 0; f < faces.faceCount(); ++f) {
+        const auto corners = faces.face(f);
+        const bool touchesCentre = std::find(corners.begin(), corners.end(), Index(centre)) != corners.end();
+        EXPECT_EQ(at(out, 25 + std::size_t(f), 2), touchesCentre ? 4.0 : 0.0) << "face " << f;
+    }
+}
+
+// On every model, both boundary modes and both rule sets, 3 steps: the rewritten table gives the
+// rows as built within double rounding; with the paper's rules every valence-4 vertex row is
+// rewritten, with Rules::Shape those beside a face with a corner rule are kept.
+TEST(FacePoints, EveryModelGivesTheRowsAsBuiltWithinRounding) {
+    std::uint64_t kept = 0;
+    for (const std::string& path : test::allValidModels())
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
+            for (Rules rules : {Rules::Paper, Rules::Shape}) {
+                SCOPED_TRACE(path + " " + boundaryName(boundary) + " " + rulesName(rules));
+                const test::Loaded loaded = test::load(path);
+                const PerLevelTable built = buildPerLevelTable(test::refine(loaded, 3, Preprocess::Auto, boundary), rules);
+                PerLevelTable rewritten = built;
+                const std::uint64_t count = vertexRowsFromFacePoints(rewritten);
+                const std::uint64_t valence4 = rowsOfKind(built, RowKind::VertexQuad, 4);
+                if (rules == Rules::Paper) {
+                    EXPECT_EQ(count, valence4);
+                }
+                EXPECT_LE(count, valence4);
+                kept += valence4 - count;
+                EXPECT_EQ(rowsOfKind(rewritten, RowKind::VertexFromFacePoints), count);
+                EXPECT_EQ(rewritten.destinations.size(), built.destinations.size());
+                expectFacePointRowsReadFacePoints(rewritten);
+                const std::vector<double> expected = evaluated(built, loaded.mesh.positions),
+                                          actual = evaluated(rewritten, loaded.mesh.positions);
+                const double scale = std::max(1.0, test::boundingDiagonal(loaded.mesh.positions));
+                ASSERT_EQ(actual.size(), expected.size());
+                for (std::size_t i = 0; i < expected.size(); ++i)
+                    ASSERT_NEAR(actual[i], expected[i], 1e-12 * scale) << "value " << i;
+            }
+    EXPECT_GT(kept, 0u);  // Rules::Shape kept some
+}
+
+// Every table refine() hands an evaluator has been rewritten, the tiled form's lean rows too
+// (whose levels past B have only some face rows: a vertex row whose faces are not all there is
+// kept); the factorized table is composed from the rows as built.
+TEST(FacePoints, RefineRewritesTheTablesItReturns) {
+    const test::Loaded torus = test::loadTorus(40, 24);
+    for (bool perLevel : {true, false}) {
+        SCOPED_TRACE(perLevel ? "full build" : "lean build");
+        RefineOptions options = test::tiledOptions(5, Boundary::Paper, Rules::Paper, TileSides::Every);
+        options.perLevel = perLevel;
+        const Refinement r = refine(torus.mesh, torus.checked.connectivity, options);
+        ASSERT_GT(r.tiled.tileCount(), 0u);
+        EXPECT_GT(rowsOfKind(r.tiled.rows, RowKind::VertexFromFacePoints), 0u);
+        expectFacePointRowsReadFacePoints(r.tiled.rows);
+        if (perLevel) {
+            EXPECT_EQ(rowsOfKind(r.perLevel, RowKind::VertexQuad), 0u);
+            expectFacePointRowsReadFacePoints(r.perLevel);
+        }
+    }
+    RefineOptions options{3, Preprocess::Auto, true, {}};
+    const Refinement r = refine(torus.mesh, torus.checked.connectivity, options);
+    EXPECT_EQ(r.factorized.rowCount(), r.perLevel.refinedCount());
+    EXPECT_THROW(buildFactorizedTable(r.perLevel), std::invalid_argument);
+    PerLevelTable again = r.perLevel;
+    EXPECT_THROW(vertexRowsFromFacePoints(again), std::invalid_argument);
+    options.vertexRowsFromFacePoints = false;
+    EXPECT_EQ(rowsOfKind(refine(torus.mesh, torus.checked.connectivity, options).perLevel, RowKind::VertexFromFacePoints), 0u);
+}
+
+}  // namespace
+}  // namespace psub
