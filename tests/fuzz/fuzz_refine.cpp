@@ -1,5 +1,6 @@
 // libFuzzer target: whatever parses and passes the checks is preprocessed, refined two
-// levels (either boundary mode), turned into all three table forms and evaluated (the tiled
+// levels (either boundary mode), turned into all three table forms (the per-level rows and the
+// tiled form's as refine() leaves them: regular vertex rows read face points) and evaluated (the tiled
 // one, a tile on every regular block, also with its normals in the tile pass); the counts must
 // match the closed form and the table forms must agree (the tiled one once put back in
 // canonical order); the tiled form's lean build (no per-level table) must make the same table;
