@@ -64,8 +64,6 @@ bool paperRegularVertex(const RowGroup& g) {
            g.diagonal == 0.0625;
 }
 
-}  // namespace
-
 // Marks the level's rows that are rewritten (rewrite[r], r within the level) and fills `around`,
 // on the build's threads: each fills the slots of its own run of parent points (every thread
 // reads every face row), then checks its share of each vertex group with its own tally.
@@ -92,6 +90,8 @@ void markRewrites(const PerLevelTable& table, const StencilLevel& level, FacesAr
         }
     }
 }
+
+}  // namespace
 
 std::uint64_t vertexRowsFromFacePoints(PerLevelTable& table) {
     for (const RowGroup& g : table.groups)
