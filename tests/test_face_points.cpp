@@ -85,6 +85,44 @@ TEST(FacePoints, ALiftedGridCentreIsHandComputed) {
     }
 }
 
+// A row is rewritten only where the table's own face rows are the vertex's four faces: a row
+// whose diagonal names another point, or whose point has a face row too few, is kept as it is.
+TEST(FacePoints, ARowTheFaceRowsDoNotMatchIsKept) {
+    const test::Loaded loaded = test::load(test::dataPath("grid4x4.obj"));
+    const PerLevelTable built = buildPerLevelTable(test::refine(loaded, 1));
+    std::uint64_t group = built.groups.size();
+    for (std::uint64_t g = 0; g < built.groups.size(); ++g)
+        if (built.groups[g].kind == RowKind::VertexQuad && built.groups[g].n == 4) group = g;
+    ASSERT_LT(group, built.groups.size());
+    const RowGroup& vertices = built.groups[group];
+    ASSERT_EQ(vertices.rowCount, 9u);
+    {
+        PerLevelTable table = built;
+        std::uint32_t* row = table.indices.data() + vertices.indexBegin;  // the first row
+        std::swap(row[5], row[1]);  // a diagonal and an edge neighbour change places
+        EXPECT_EQ(vertexRowsFromFacePoints(table), 8u);
+        EXPECT_EQ(rowsOfKind(table, RowKind::VertexQuad, 4), 1u);
+    }
+    {
+        PerLevelTable table = built;
+        const std::uint32_t centre = table.indices[vertices.indexBegin + 4 * vertices.width];  // the middle row's P
+        bool changed = false;  // one face row around it names another of its corners instead
+        for (const RowGroup& g : table.groups)
+            for (std::uint64_t r = 0; g.kind == RowKind::FaceQuad && r < g.rowCount && !changed; ++r) {
+                std::uint32_t* corners = table.indices.data() + g.indexBegin + r * g.width;
+                for (int j = 0; j < 4 && !changed; ++j)
+                    if (corners[j] == centre) corners[j] = corners[(j + 1) % 4], changed = true;
+            }
+        ASSERT_TRUE(changed);
+        EXPECT_LT(vertexRowsFromFacePoints(table), 9u);
+        bool centreKept = false;
+        for (const RowGroup& g : table.groups)
+            for (std::uint64_t r = 0; g.kind == RowKind::VertexQuad && r < g.rowCount; ++r)
+                centreKept = centreKept || table.indices[g.indexBegin + r * g.width] == centre;
+        EXPECT_TRUE(centreKept);
+    }
+}
+
 // On every model, both boundary modes and both rule sets, 3 steps: the rewritten table gives the
 // rows as built within double rounding; with the paper's rules every valence-4 vertex row is
 // rewritten, with Rules::Shape those beside a face with a corner rule are kept.
