@@ -7,9 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <random>
 
 namespace psub {
@@ -498,6 +501,54 @@ TEST(Evaluator, FloatNormalsAreBitIdenticalToTheDefinition) {
             for (std::size_t i = 0; i < normals.size(); ++i)
                 ASSERT_EQ(std::bit_cast<std::uint32_t>(normals[i]), std::bit_cast<std::uint32_t>(expected[i]))
                     << "tiled form, width " << width << ", threads " << threads << ", value " << i;
+        }
+    }
+}
+
+// A grid of n x n quads (vertices (n + 1)^2, row by row) whose faces are numbered row by row,
+// or (`shuffled`) at random.
+SurfaceTable gridSurface(std::uint32_t n, bool shuffled) {
+    std::vector<std::uint32_t> number(std::size_t(n) * n);
+    for (std::uint32_t f = 0; f < number.size(); ++f) number[f] = f;
+    if (shuffled) std::shuffle(number.begin(), number.end(), std::mt19937(3));
+    std::vector<std::array<Index, 4>> quads(number.size());
+    const auto at = [n](std::uint32_t x, std::uint32_t y) { return Index(y * (n + 1) + x); };
+    for (std::uint32_t j = 0; j < n; ++j)
+        for (std::uint32_t i = 0; i < n; ++i)
+            quads[number[j * n + i]] = {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)};
+    Faces faces;
+    faces.vertexCount = Index((n + 1) * (n + 1));
+    for (const auto& quad : quads) faces.addFace(quad);
+    return buildSurfaceTable(std::move(faces));
+}
+
+// normals() in one pass (a window of face normals, where the faces' order keeps each block's
+// near) gives the bits of the definition: on the tiled form's drawing order of the cow and on a
+// grid numbered row by row (its last vertex's face the last face), at 1 to 3 threads; a grid
+// numbered at random keeps the two passes.
+TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 4);
+    const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    ASSERT_EQ(tiled.tileCount(), 0u);
+    const SurfaceTable rows = gridSurface(200, false), shuffled = gridSurface(200, true);
+    for (const SurfaceTable* surface : {&tiled.surface, &rows, &shuffled}) {
+        std::mt19937 random(17);
+        std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+        std::vector<float> positions(3 * std::size_t(surface->vertexCount));
+        for (float& x : positions) x = uniform(random);
+        const std::vector<float> expected = referenceNormals(*surface, positions, 3);
+        for (const int threads : {1, 2, 3}) {
+            std::unique_ptr<CpuEvaluator<float>> evaluator =
+                surface == &tiled.surface
+                    ? std::make_unique<CpuEvaluator<float>>(tiled, 3, threads)
+                    : std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, *surface, TableForm::PerLevel, 3, threads);
+            EXPECT_EQ(evaluator->normalsInOnePass(), surface != &shuffled) << (surface == &tiled.surface ? "cow" : "grid");
+            std::vector<float> normals(expected.size(), -7.0f);
+            evaluator->normals(positions, normals);
+            for (std::size_t i = 0; i < normals.size(); ++i)
+                ASSERT_EQ(std::bit_cast<std::uint32_t>(normals[i]), std::bit_cast<std::uint32_t>(expected[i]))
+                    << "surface " << (surface == &tiled.surface ? "cow" : surface == &rows ? "rows" : "shuffled")
+                    << ", threads " << threads << ", value " << i;
         }
     }
 }

@@ -119,6 +119,8 @@ public:
     int threads() const { return threads_; }
     // The tiled form computes most normals in its tile pass (evaluate with normals, below).
     bool normalsInTilePass() const { return tileNormals_.worthIt; }
+    // normals() runs as one pass over a window of face normals, not two (windowedNormalsSimd).
+    bool normalsInOnePass() const { return !windowTo_.empty(); }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
@@ -142,6 +144,12 @@ private:
     void vertexNormalsScalar(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;
     void faceNormalsSimd(const T* positions, const std::vector<std::uint32_t>* only = nullptr);  // float only
     void vertexNormalsSimd(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;  // float only
+    // normals() in one pass (float, SSE, quads, width 3): each thread's vertices block by block,
+    // the face normals they read computed just before into a window of kWindowFaces in cache,
+    // where the surface's order keeps every block's faces near (planNormalWindow: the tiled
+    // form's drawing order); the same operations as the two passes, so the same bits.
+    void windowedNormalsSimd(const T* positions, T* normals) const;
+    void planNormalWindow();
     // Both passes, inside a parallel region (a barrier between them).
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
@@ -163,6 +171,10 @@ private:
     // without), not in the tiled form's drawing order, whose neighbours are near in memory
     // already (3.5-4.0 against 4.1-4.3 ms with; session 26, bench/README.md).
     bool prefetchNormals_ = true;
+    // Per block of kWindowBlock vertices (planNormalWindow; empty: the two passes): the first
+    // face that it or any later block reads, and one past the last face it reads.
+    std::vector<std::uint32_t> windowFrom_, windowTo_;
+    std::vector<std::uint32_t> lastVertexFaces_;  // the faces around the last vertex, ascending
     const TiledTable* tiled_ = nullptr;
     TileNormalSets tileNormals_;  // tiled form: normals in the tile pass, where worthIt
 };
