@@ -186,9 +186,11 @@ void CpuEvaluator<T>::allocate() {
     planNormalWindow();
 }
 
-// Chooses windowedNormalsSimd when every block's faces fit the window as the blocks are taken
-// in order from any starting block: the faces from the first that any later block reads to
-// the last that any earlier block read span at most kWindowFaces.
+// Plans windowedNormalsSimd: blocks of kWindowBlock vertices in the surface's order, where, from
+// any block on, the faces from the first that any later block reads to the last that any
+// earlier block read span at most the window (the tiled form's drawing order; not the canonical
+// order, where a block of vertices reads faces from all over the surface: the first test below,
+// one block's own span, rules it out).
 template <class T>
 void CpuEvaluator<T>::planNormalWindow() {
     const SurfaceTable& surface = surface_;
@@ -198,11 +200,19 @@ void CpuEvaluator<T>::planNormalWindow() {
         return;
     const std::uint32_t blocks = (vertexCount - 1) / kWindowBlock + 1;
     std::vector<std::uint32_t> from(blocks, UINT32_MAX), to(blocks, 0);
-    for (std::uint32_t v = 0; v < vertexCount; ++v)
-        for (std::uint32_t j = surface.vertexOffsets[v]; j < surface.vertexOffsets[v + 1]; ++j) {
-            from[v / kWindowBlock] = std::min(from[v / kWindowBlock], surface.vertexFaces[j]);
-            to[v / kWindowBlock] = std::max(to[v / kWindowBlock], surface.vertexFaces[j] + 1);
-        }
+    bool tooWide = false;
+#pragma omp parallel for num_threads(threads_) schedule(static) reduction(|| : tooWide)
+    for (std::uint32_t b = 0; b < blocks; ++b) {
+        const std::uint32_t* f = surface.vertexFaces.data() + surface.vertexOffsets[b * kWindowBlock];
+        const std::uint32_t* fEnd =
+            surface.vertexFaces.data() + surface.vertexOffsets[std::min(vertexCount, (b + 1) * kWindowBlock)];
+        if (f == fEnd) continue;
+        const auto [lo, hi] = std::minmax_element(f, fEnd);
+        from[b] = *lo;
+        to[b] = *hi + 1;
+        tooWide = tooWide || to[b] - from[b] > kWindowFaces;
+    }
+    if (tooWide) return;
     for (std::uint32_t b = blocks - 1; b-- > 0;) from[b] = std::min(from[b], from[b + 1]);
     std::uint32_t reached = 0;
     for (std::uint32_t b = 0; b < blocks; ++b) {
@@ -300,10 +310,10 @@ void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) 
     const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
 #pragma omp parallel num_threads(team) if (team > 1)
     {
-        if (!windowTo_.empty())
-            windowedNormalsSimd(refined.data(), normals.data());
-        else
+        if (windowTo_.empty())
             normalPasses(refined.data(), normals.data());
+        else
+            windowedNormalsSimd(refined.data(), normals.data());
     }
 }
 
@@ -433,6 +443,18 @@ void storeFourNormals(float* o, __m128 x, __m128 y, __m128 z, __m128 w) {
     _mm_storeu_ps(o, _mm_shuffle_ps(xy01, z0x1, _MM_SHUFFLE(2, 0, 1, 0)));
     _mm_storeu_ps(o + 4, _mm_shuffle_ps(y1z1, xy23, _MM_SHUFFLE(1, 0, 2, 0)));
     _mm_storeu_ps(o + 8, _mm_shuffle_ps(z2x3, y3z3, _MM_SHUFFLE(2, 0, 2, 0)));
+}
+
+// The unit normals of the four vertices v[0..3] from their sums: normalised side by side,
+// transposed back, one a register.
+void storeFourListedNormals(float* out, const std::uint32_t* v, __m128 x, __m128 y, __m128 z, __m128 w) {
+    normaliseFour(x, y, z, w);
+    w = _mm_setzero_ps();
+    _MM_TRANSPOSE4_PS(x, y, z, w);
+    store3(out + 3 * std::size_t(v[0]), x);
+    store3(out + 3 * std::size_t(v[1]), y);
+    store3(out + 3 * std::size_t(v[2]), z);
+    store3(out + 3 * std::size_t(v[3]), w);
 }
 
 // One vertex's unit normal from its sum, as the scalar pass computes it.
@@ -586,18 +608,11 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
         };
         if (!only && prefetchEnd > 0) fourAtATime(std::true_type{});
         if (!only && prefetchEnd == 0) fourAtATime(std::false_type{});
-        // Four listed vertices (no prefetches: prefetchEnd is 0): transposed back, one a register.
+        // Four listed vertices (no prefetches: prefetchEnd is 0).
         for (; only && i + 4 <= std::uint32_t(vEnd); i += 4) {
             const std::uint32_t* v = only->data() + i;
-            __m128 x = faceSum(v[0], std::false_type{}), y = faceSum(v[1], std::false_type{});
-            __m128 z = faceSum(v[2], std::false_type{}), w = faceSum(v[3], std::false_type{});
-            normaliseFour(x, y, z, w);
-            w = _mm_setzero_ps();
-            _MM_TRANSPOSE4_PS(x, y, z, w);
-            store3(out + 3 * std::size_t(v[0]), x);
-            store3(out + 3 * std::size_t(v[1]), y);
-            store3(out + 3 * std::size_t(v[2]), z);
-            store3(out + 3 * std::size_t(v[3]), w);
+            storeFourListedNormals(out, v, faceSum(v[0], std::false_type{}), faceSum(v[1], std::false_type{}),
+                                   faceSum(v[2], std::false_type{}), faceSum(v[3], std::false_type{}));
         }
         // The rest (a listed vertex, or the last few of this thread's share) one by one.
         for (; i < std::uint32_t(vEnd); ++i) {

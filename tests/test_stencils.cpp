@@ -506,11 +506,13 @@ TEST(Evaluator, FloatNormalsAreBitIdenticalToTheDefinition) {
 }
 
 // A grid of n x n quads (vertices (n + 1)^2, row by row) whose faces are numbered row by row,
-// or (`shuffled`) at random.
-SurfaceTable gridSurface(std::uint32_t n, bool shuffled) {
+// with the first and last faces' numbers swapped, or at random.
+enum class FaceNumbers { Rows, TwoSwapped, Random };
+SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers) {
     std::vector<std::uint32_t> number(std::size_t(n) * n);
     for (std::uint32_t f = 0; f < number.size(); ++f) number[f] = f;
-    if (shuffled) std::shuffle(number.begin(), number.end(), std::mt19937(3));
+    if (numbers == FaceNumbers::TwoSwapped) std::swap(number.front(), number.back());
+    if (numbers == FaceNumbers::Random) std::shuffle(number.begin(), number.end(), std::mt19937(3));
     std::vector<std::array<Index, 4>> quads(number.size());
     const auto at = [n](std::uint32_t x, std::uint32_t y) { return Index(y * (n + 1) + x); };
     for (std::uint32_t j = 0; j < n; ++j)
@@ -522,16 +524,21 @@ SurfaceTable gridSurface(std::uint32_t n, bool shuffled) {
     return buildSurfaceTable(std::move(faces));
 }
 
-// normals() in one pass (a window of face normals, where the faces' order keeps each block's
-// near) gives the bits of the definition: on the tiled form's drawing order of the cow and on a
-// grid numbered row by row (its last vertex's face the last face), at 1 to 3 threads; a grid
-// numbered at random keeps the two passes.
+// normals() in one pass (a window of face normals) gives the bits of the definition at 1 to 3
+// threads, twice in a row (the window reused): on the tiled form's drawing order of the cow and
+// on a grid numbered row by row (its last vertex's face the last face). The cow's canonical
+// order, the grid with its first and last faces' numbers swapped and one numbered at random
+// keep the two passes (a block of vertices there reads faces too far apart).
 TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 4);
     const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
     ASSERT_EQ(tiled.tileCount(), 0u);
-    const SurfaceTable rows = gridSurface(200, false), shuffled = gridSurface(200, true);
-    for (const SurfaceTable* surface : {&tiled.surface, &rows, &shuffled}) {
+    const SurfaceTable rows = gridSurface(200, FaceNumbers::Rows), swapped = gridSurface(200, FaceNumbers::TwoSwapped),
+                       shuffled = gridSurface(200, FaceNumbers::Random);
+    const std::pair<const SurfaceTable*, const char*> surfaces[] = {
+        {&tiled.surface, "cow, drawing order"}, {&r.surface, "cow, canonical order"}, {&rows, "grid"},
+        {&swapped, "grid, two faces swapped"}, {&shuffled, "grid, numbered at random"}};
+    for (const auto& [surface, name] : surfaces) {
         std::mt19937 random(17);
         std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
         std::vector<float> positions(3 * std::size_t(surface->vertexCount));
@@ -542,13 +549,14 @@ TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
                 surface == &tiled.surface
                     ? std::make_unique<CpuEvaluator<float>>(tiled, 3, threads)
                     : std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, *surface, TableForm::PerLevel, 3, threads);
-            EXPECT_EQ(evaluator->normalsInOnePass(), surface != &shuffled) << (surface == &tiled.surface ? "cow" : "grid");
-            std::vector<float> normals(expected.size(), -7.0f);
-            evaluator->normals(positions, normals);
-            for (std::size_t i = 0; i < normals.size(); ++i)
-                ASSERT_EQ(std::bit_cast<std::uint32_t>(normals[i]), std::bit_cast<std::uint32_t>(expected[i]))
-                    << "surface " << (surface == &tiled.surface ? "cow" : surface == &rows ? "rows" : "shuffled")
-                    << ", threads " << threads << ", value " << i;
+            EXPECT_EQ(evaluator->normalsInOnePass(), surface == &tiled.surface || surface == &rows) << name;
+            for (const int call : {1, 2}) {
+                std::vector<float> normals(expected.size(), -7.0f);
+                evaluator->normals(positions, normals);
+                for (std::size_t i = 0; i < normals.size(); ++i)
+                    ASSERT_EQ(std::bit_cast<std::uint32_t>(normals[i]), std::bit_cast<std::uint32_t>(expected[i]))
+                        << name << ", call " << call << ", threads " << threads << ", value " << i;
+            }
         }
     }
 }

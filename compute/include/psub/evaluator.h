@@ -119,7 +119,7 @@ public:
     int threads() const { return threads_; }
     // The tiled form computes most normals in its tile pass (evaluate with normals, below).
     bool normalsInTilePass() const { return tileNormals_.worthIt; }
-    // normals() runs as one pass over a window of face normals, not two (windowedNormalsSimd).
+    // normals() runs as one pass over a window of face normals (windowedNormalsSimd), not two.
     bool normalsInOnePass() const { return !windowTo_.empty(); }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
@@ -146,8 +146,9 @@ private:
     void vertexNormalsSimd(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;  // float only
     // normals() in one pass (float, SSE, quads, width 3): each thread's vertices block by block,
     // the face normals they read computed just before into a window of kWindowFaces in cache,
-    // where the surface's order keeps every block's faces near (planNormalWindow: the tiled
-    // form's drawing order); the same operations as the two passes, so the same bits.
+    // where the surface's order keeps every block's faces near (planNormalWindow, when the
+    // evaluator is made: the tiled form's drawing order); the same operations as the two
+    // passes, so the same bits.
     void windowedNormalsSimd(const T* positions, T* normals) const;
     void planNormalWindow();
     // Both passes, inside a parallel region (a barrier between them).
