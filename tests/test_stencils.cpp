@@ -528,16 +528,24 @@ SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers) {
 // threads, twice in a row (the window reused): on the tiled form's drawing order of the cow and
 // on a grid numbered row by row (its last vertex's face the last face). The cow's canonical
 // order, the grid with its first and last faces' numbers swapped and one numbered at random
-// keep the two passes (a block of vertices there reads faces too far apart).
+// keep the two passes (a block of vertices there reads faces too far apart), as does a smaller
+// grid.
 TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
-    const Refined r = refineModel(test::dataPath("cow.obj"), 4);
-    const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    // At least 2^18 faces each (below, the two passes are the faster: cpu_evaluator.cpp).
+    const Hierarchy h = test::refine(load(test::dataPath("cow.obj")), 5);
+    const PerLevelTable perLevel = buildPerLevelTable(h);
+    const TiledTable tiled = buildTiledTable(h, perLevel);
     ASSERT_EQ(tiled.tileCount(), 0u);
-    const SurfaceTable rows = gridSurface(200, FaceNumbers::Rows), swapped = gridSurface(200, FaceNumbers::TwoSwapped),
-                       shuffled = gridSurface(200, FaceNumbers::Random);
+    const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(500, FaceNumbers::Rows),
+                       rows = gridSurface(520, FaceNumbers::Rows), swapped = gridSurface(520, FaceNumbers::TwoSwapped),
+                       shuffled = gridSurface(520, FaceNumbers::Random);
+    ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 18);
+    ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 18);
+    ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 18);
     const std::pair<const SurfaceTable*, const char*> surfaces[] = {
-        {&tiled.surface, "cow, drawing order"}, {&r.surface, "cow, canonical order"}, {&rows, "grid"},
-        {&swapped, "grid, two faces swapped"}, {&shuffled, "grid, numbered at random"}};
+        {&tiled.surface, "cow, drawing order"}, {&canonical, "cow, canonical order"}, {&rows, "grid"},
+        {&small, "grid of fewer than 2^18 faces"}, {&swapped, "grid, two faces swapped"},
+        {&shuffled, "grid, numbered at random"}};
     for (const auto& [surface, name] : surfaces) {
         std::mt19937 random(17);
         std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
@@ -548,7 +556,7 @@ TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
             std::unique_ptr<CpuEvaluator<float>> evaluator =
                 surface == &tiled.surface
                     ? std::make_unique<CpuEvaluator<float>>(tiled, 3, threads)
-                    : std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, *surface, TableForm::PerLevel, 3, threads);
+                    : std::make_unique<CpuEvaluator<float>>(perLevel, FactorizedTable{}, *surface, TableForm::PerLevel, 3, threads);
             EXPECT_EQ(evaluator->normalsInOnePass(), surface == &tiled.surface || surface == &rows) << name;
             for (const int call : {1, 2}) {
                 std::vector<float> normals(expected.size(), -7.0f);
