@@ -531,20 +531,20 @@ SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers) {
 // keep the two passes (a block of vertices there reads faces too far apart), as does a smaller
 // grid.
 TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
-    // At least 2^18 faces each (below, the two passes are the faster: cpu_evaluator.cpp).
-    const Hierarchy h = test::refine(load(test::dataPath("cow.obj")), 5);
+    // At least 2^19 faces each (below, the two passes are as fast: cpu_evaluator.cpp).
+    const Hierarchy h = test::refine(load(test::dataPath("cow.obj")), 6);
     const PerLevelTable perLevel = buildPerLevelTable(h);
     const TiledTable tiled = buildTiledTable(h, perLevel);
     ASSERT_EQ(tiled.tileCount(), 0u);
-    const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(500, FaceNumbers::Rows),
-                       rows = gridSurface(520, FaceNumbers::Rows), swapped = gridSurface(520, FaceNumbers::TwoSwapped),
-                       shuffled = gridSurface(520, FaceNumbers::Random);
-    ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 18);
-    ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 18);
-    ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 18);
+    const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(700, FaceNumbers::Rows),
+                       rows = gridSurface(725, FaceNumbers::Rows), swapped = gridSurface(725, FaceNumbers::TwoSwapped),
+                       shuffled = gridSurface(725, FaceNumbers::Random);
+    ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 19);
+    ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 19);
+    ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 19);
     const std::pair<const SurfaceTable*, const char*> surfaces[] = {
         {&tiled.surface, "cow, drawing order"}, {&canonical, "cow, canonical order"}, {&rows, "grid"},
-        {&small, "grid of fewer than 2^18 faces"}, {&swapped, "grid, two faces swapped"},
+        {&small, "grid of fewer than 2^19 faces"}, {&swapped, "grid, two faces swapped"},
         {&shuffled, "grid, numbered at random"}};
     for (const auto& [surface, name] : surfaces) {
         std::mt19937 random(17);
