@@ -461,6 +461,22 @@ void storeFourListedNormals(float* out, const std::uint32_t* v, __m128 x, __m128
     store3(out + 3 * std::size_t(v[3]), w);
 }
 
+// The sum of a vertex's face normals faceNormal(j), j = begin .. end - 1 (its entries in the
+// surface's vertexFaces), in that order. Four faces (most vertices of a quad mesh) unrolled: no
+// loop exit to predict (normals 15-20% faster on the cow at 7 steps), the same sums in the same
+// order.
+template <class FaceNormal>
+[[gnu::always_inline]] inline __m128 faceNormalSum(std::uint32_t begin, std::uint32_t end, FaceNormal& faceNormal) {
+    __m128 n = _mm_setzero_ps();
+    if (end - begin == 4) {
+        const __m128 n0 = faceNormal(begin), n1 = faceNormal(begin + 1);
+        const __m128 n2 = faceNormal(begin + 2), n3 = faceNormal(begin + 3);
+        return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(n, n0), n1), n2), n3);
+    }
+    for (std::uint32_t j = begin; j < end; ++j) n = _mm_add_ps(n, faceNormal(j));
+    return n;
+}
+
 // One vertex's unit normal from its sum, as the scalar pass computes it.
 void storeNormal(float* o, __m128 n) {
     alignas(16) float s[4];
@@ -590,17 +606,7 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
                     if (j < prefetchEnd) __builtin_prefetch(faceNormals + 4 * std::size_t(vertexFaces[j + kAhead]));
                 return _mm_load_ps(faceNormals + 4 * std::size_t(vertexFaces[j]));
             };
-            const std::uint32_t begin = vertexOffsets[v], end = vertexOffsets[v + 1];
-            __m128 n = _mm_setzero_ps();
-            if (end - begin == 4) {
-                // Four faces (most vertices of a quad mesh), unrolled: no loop exit to predict;
-                // normals 15-20% faster on the cow at 7 steps. The same sums in the same order.
-                const __m128 n0 = faceNormal(begin), n1 = faceNormal(begin + 1);
-                const __m128 n2 = faceNormal(begin + 2), n3 = faceNormal(begin + 3);
-                return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(n, n0), n1), n2), n3);
-            }
-            for (std::uint32_t j = begin; j < end; ++j) n = _mm_add_ps(n, faceNormal(j));
-            return n;
+            return faceNormalSum(vertexOffsets[v], vertexOffsets[v + 1], faceNormal);
         };
         std::uint32_t i = std::uint32_t(vBegin);
         // Four consecutive vertices: written as 48 bytes.
@@ -668,15 +674,7 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             auto faceNormal = [&](std::uint32_t j) {
                 return _mm_load_ps(window + 4 * std::size_t(vertexFaces[j] & (kWindowFaces - 1)));
             };
-            const std::uint32_t begin = vertexOffsets[v], end = vertexOffsets[v + 1];
-            __m128 n = _mm_setzero_ps();
-            if (end - begin == 4) {
-                const __m128 n0 = faceNormal(begin), n1 = faceNormal(begin + 1);
-                const __m128 n2 = faceNormal(begin + 2), n3 = faceNormal(begin + 3);
-                return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(n, n0), n1), n2), n3);
-            }
-            for (std::uint32_t j = begin; j < end; ++j) n = _mm_add_ps(n, faceNormal(j));
-            return n;
+            return faceNormalSum(vertexOffsets[v], vertexOffsets[v + 1], faceNormal);
         };
         std::uint32_t done = windowFrom_[blockShare.first];  // faces [.., done) are in the window
         for (std::uint64_t b = blockShare.first; b < blockShare.second; ++b) {
