@@ -65,8 +65,8 @@ inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& contr
 // The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
 // each candidate on `control`: the per-level rows; the tiled form of `r` (built with both
 // forms; without a tile it is the fallback's rows alone in walk order, docs/tiled.md, and is
-// timed only where a frame runs on several threads: below that the order matters little and
-// the per-level rows are kept untimed); and, on the CPU when a frame runs on several threads,
+// timed only on Vulkan or where a CPU frame runs on several threads: below that the order
+// matters little and the per-level rows are kept untimed); and, on the CPU when a frame runs on several threads,
 // both with their rows ordered by region, one region per thread (orderLevelsByRegion, the tiled
 // form's rows up to its level B; docs/design.md, "Threads and regions": faster where a thread
 // reading another's fresh writes is dear, slower on one thread). One evaluator at a time (a device's memory may hold one
@@ -87,7 +87,10 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
     const int threads = backend == Backend::Cpu && r.perLevel.regions == 1 && r.perLevel.levels.size() > 1
                             ? perLevelFrameThreads(r.perLevel)
                             : 1;
-    if (!tiles && threads == 1) {  // small enough to run on one thread: its order matters little
+    // Without a tile, a mesh small enough for one CPU thread keeps the per-level rows: its order
+    // matters little there. On Vulkan it does (lavapipe, the cow at 7 steps: 24 fps per-level,
+    // 31 with the walk order; bench/README.md, session 28), so both are timed.
+    if (!tiles && threads == 1 && backend == Backend::Cpu) {
         choice.reason = "auto: no regular tiles";
         return choice;
     }

@@ -109,7 +109,23 @@ TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoTimesBoth) {
     fs::remove(torus);
 }
 
-// Without a tile, on a mesh small enough for one thread, auto keeps the per-level rows untimed.
+// On Vulkan auto times the tiled form without tiles too (its fallback in walk order), whatever
+// the CPU's threads; whichever wins plays the oracle's frames.
+TEST(PlayForm, VulkanAutoTimesTheWalkOrderWithoutTiles) {
+    const Outcome run = psub("play '" + psub::test::dataPath("cow.obj") +
+                             "' --levels 3 --frames 2 --anim twist --verify --backend vulkan");
+    if (run.status != 0 && contains(run.err, "Vulkan") && psub::test::noVulkanAllowed())
+        GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << run.err;
+    EXPECT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles; rest pose with normals ") ||
+                contains(run.out, "Table form: tiled (auto: no regular tiles; rest pose with normals "))
+        << run.out;
+    EXPECT_TRUE(contains(run.out, " ms tiled)")) << run.out;
+    EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
+}
+
+// Without a tile, on a mesh small enough for one thread, auto keeps the per-level rows untimed
+// (on the CPU).
 TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
     const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --levels 3 --frames 2");
     EXPECT_EQ(run.status, 0) << run.err;
