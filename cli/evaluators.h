@@ -63,17 +63,21 @@ inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& contr
 }
 
 // The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
-// each candidate on `control`: the per-level rows; the tiled form of `r` (built with both
-// forms; without a tile it is the fallback's rows alone in walk order, docs/tiled.md, and is
-// timed only on Vulkan or where a CPU frame runs on several threads: below that the order
-// matters little and the per-level rows are kept untimed); and, on the CPU when a frame runs on several threads,
-// both with their rows ordered by region, one region per thread (orderLevelsByRegion, the tiled
-// form's rows up to its level B; docs/design.md, "Threads and regions": faster where a thread
-// reading another's fresh writes is dear, slower on one thread). One evaluator at a time (a device's memory may hold one
-// mesh's tables, not two): `tiled` is the tiled one when it won, else empty (make the per-level
-// one again). The rows of the winner stay region-ordered if that won (the same output, bit for
-// bit). `reason`: "auto: ...", for summaries. On lavapipe the tile kernel's first compile takes
-// seconds (Mesa's shader cache keeps it).
+// each candidate on `control`:
+// - the per-level rows;
+// - the tiled form of `r` (built with both forms). Without a tile it is the fallback's rows
+//   alone in walk order (docs/tiled.md), and it is timed only on Vulkan or where a CPU frame runs
+//   on several threads; on one CPU thread the order matters little and the per-level rows are
+//   kept untimed;
+// - on the CPU when a frame runs on several threads, both with their rows ordered by region, one
+//   region per thread (orderLevelsByRegion, the tiled form's rows up to its level B;
+//   docs/design.md, "Threads and regions": faster where a thread reading another's fresh writes
+//   is dear, slower on one thread).
+// One evaluator at a time (a device's memory may hold one mesh's tables, not two): `tiled` is the
+// tiled one when it won, else empty (make the per-level one again). The rows of the winner stay
+// region-ordered if that won (the same output, bit for bit). `reason`: "auto: ...", for
+// summaries. On lavapipe the tile kernel's first compile takes seconds (Mesa's shader cache keeps
+// it).
 struct FormChoice {
     TableForm form = TableForm::PerLevel;
     std::unique_ptr<Evaluator> tiled;
@@ -88,8 +92,8 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
                             ? perLevelFrameThreads(r.perLevel)
                             : 1;
     // Without a tile, a mesh small enough for one CPU thread keeps the per-level rows: its order
-    // matters little there. On Vulkan it does (lavapipe, the cow at 7 steps: 24 fps per-level,
-    // 31 with the walk order; bench/README.md, session 28), so both are timed.
+    // matters little there. On Vulkan it does (lavapipe, the cow at 7 steps: 24.7 fps per-level,
+    // 31.7-32.0 in walk order; bench/README.md, session 28), so both are timed.
     if (!tiles && threads == 1 && backend == Backend::Cpu) {
         choice.reason = "auto: no regular tiles";
         return choice;

@@ -190,11 +190,11 @@ void CpuEvaluator<T>::allocate() {
 }
 
 // Plans windowedNormalsSimd on a surface of at least kWindowMinFaces quads: blocks of
-// kWindowBlock vertices in the surface's order, where, from
-// any block on, the faces from the first that any later block reads to the last that any
-// earlier block read span at most the window (the tiled form's drawing order; not the canonical
-// order, where a block of vertices reads faces from all over the surface: the first test below,
-// one block's own span, rules it out).
+// kWindowBlock vertices in the surface's order, where, from any block on, the faces from the
+// first that any later block reads to the last that any earlier block read span at most the
+// window (the tiled form's drawing order; not the canonical order, where a block of vertices
+// reads faces from all over the surface: the first test below, one block's own span, rules it
+// out).
 template <class T>
 void CpuEvaluator<T>::planNormalWindow() {
     const SurfaceTable& surface = surface_;
