@@ -24,13 +24,14 @@ constexpr bool kSimd = false;
 
 constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate level (allocate)
 
-// normals() in one pass (windowedNormalsSimd): vertices a block at a time, face normals in a
-// window of 8192 (128 KB, in the second-level cache; the cow at 7 steps in drawing order needs
-// 6431 with blocks of 64), on surfaces of at least 2^19 faces: with fewer, whose face normals
+// normals() in one pass (windowedNormalsSimd): vertices a block of 32 at a time, face normals in
+// a window of 8192 (128 KB, in the second-level cache; the cow at 7 steps in drawing order needs
+// 6400; blocks of 16 and 64 were within 5%, windows of 16384 no faster), on surfaces of at least
+// 2^19 faces: with fewer, whose face normals
 // (8 MB at 2^19) stay in cache between the two passes, the two passes were as fast or faster
 // (the cow at 17k and 139k faces by 5-15%, at 279k within 10% either way; at 557k the one pass
 // 20% faster, at 1.1M 22%).
-constexpr std::uint32_t kWindowBlock = 64, kWindowFaces = 8192, kWindowMinFaces = 1u << 19;
+constexpr std::uint32_t kWindowBlock = 32, kWindowFaces = 8192, kWindowMinFaces = 1u << 19;
 
 // This thread's share [begin, end) of `rows` rows.
 std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
