@@ -32,6 +32,8 @@ constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate le
 // (the cow at 17k and 139k faces by 5-15%, at 279k within 10% either way; at 557k the one pass
 // 20% faster, at 1.1M 22%).
 constexpr std::uint32_t kWindowBlock = 32, kWindowFaces = 8192, kWindowMinFaces = 1u << 19;
+// Its narrow corners: runs of 64 faces, each with its least corner as the base.
+constexpr std::uint32_t kCornerRun = 64;
 
 // This thread's share [begin, end) of `rows` rows.
 std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
@@ -165,9 +167,9 @@ CpuEvaluator<T>::CpuEvaluator(const TiledTable& tiled, std::uint32_t width, int 
     : perLevel_(tiled.rows), factorized_(noFactorizedTable()), surface_(tiled.surface), form_(TableForm::Tiled),
       width_(width), threads_(threads > 0 ? threads : omp_get_max_threads()), tiled_(&tiled) {
     if (width == 0) throw std::invalid_argument("CpuEvaluator: width must be at least 1");
-    allocate();
     tileNormals_ = tileNormalSets(tiled);
     prefetchNormals_ = false;
+    allocate();
 }
 
 template <class T>
@@ -195,12 +197,13 @@ void CpuEvaluator<T>::allocate() {
 // first that any later block reads to the last that any earlier block read span at most the
 // window (the tiled form's drawing order; not the canonical order, where a block of vertices
 // reads faces from all over the surface: the first test below, one block's own span, rules it
-// out).
+// out). Not where the tiled form's tile pass computes most normals (tileNormals_.worthIt): a
+// frame then takes the two passes over the rest, and the plan's copies would be memory unused.
 template <class T>
 void CpuEvaluator<T>::planNormalWindow() {
     const SurfaceTable& surface = surface_;
     const std::uint32_t vertexCount = surface.vertexCount;
-    if (!std::is_same_v<T, float> || !kSimd || !allQuads_ || width_ != 3 || vertexCount == 0 ||
+    if (!std::is_same_v<T, float> || !kSimd || !allQuads_ || width_ != 3 || vertexCount == 0 || tileNormals_.worthIt ||
         surface.vertexOffsets.size() != std::size_t(vertexCount) + 1 || surface.faceOffsets.size() - 1 < kWindowMinFaces)
         return;
     const std::uint32_t blocks = (vertexCount - 1) / kWindowBlock + 1;
@@ -230,6 +233,51 @@ void CpuEvaluator<T>::planNormalWindow() {
     lastVertexFaces_.assign(surface.vertexFaces.begin() + surface.vertexOffsets[last],
                             surface.vertexFaces.begin() + surface.vertexOffsets[last + 1]);
     std::sort(lastVertexFaces_.begin(), lastVertexFaces_.end());
+    planNarrowSurface();
+}
+
+// The one pass reads 16-bit copies of the surface's indices where they fit, and no offsets
+// where a block's vertices have four faces each: of the 80 MB the pass moves on the cow at 7
+// steps, 18 MB fewer, and it is bound by those bytes (normals 3.1 -> 2.5 ms there, the same
+// bits; bench/README.md, "Session 29").
+template <class T>
+void CpuEvaluator<T>::planNarrowSurface() {
+    const SurfaceTable& surface = surface_;
+    const std::uint32_t vertexCount = surface.vertexCount, blocks = std::uint32_t(windowTo_.size());
+    const std::size_t entries = surface.vertexFaces.size(), faces = surface.faceOffsets.size() - 1;
+    const std::size_t runs = (faces - 1) / kCornerRun + 1;
+    windowSlots_.resize(entries);
+    fourFaceBlocks_.resize(blocks);
+    cornerBase_.resize(runs);
+    windowCorners_.resize(surface.faceVerts.size());
+    bool wide = false;  // a run of faces whose corners span 2^16 vertices or more
+#pragma omp parallel num_threads(threads_)
+    {
+#pragma omp for schedule(static)
+        for (std::size_t j = 0; j < entries; ++j)
+            windowSlots_[j] = std::uint16_t(surface.vertexFaces[j] & (kWindowFaces - 1));
+#pragma omp for schedule(static) nowait
+        for (std::uint32_t b = 0; b < blocks; ++b) {
+            const std::uint32_t begin = b * kWindowBlock, end = std::min(vertexCount, begin + kWindowBlock);
+            bool four = end - begin == kWindowBlock;
+            for (std::uint32_t v = begin; v < end && four; ++v) four = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] == 4;
+            fourFaceBlocks_[b] = four;
+        }
+#pragma omp for schedule(static) reduction(|| : wide)
+        for (std::size_t r = 0; r < runs; ++r) {
+            const std::uint32_t* c = surface.faceVerts.data() + 4 * kCornerRun * r;
+            const std::uint32_t* cEnd = surface.faceVerts.data() + 4 * std::min(faces, kCornerRun * (r + 1));
+            const auto [lo, hi] = std::minmax_element(c, cEnd);
+            cornerBase_[r] = *lo;
+            wide = wide || *hi - *lo > UINT16_MAX;
+            for (std::uint16_t* narrow = windowCorners_.data() + (c - surface.faceVerts.data()); c < cEnd; ++c, ++narrow)
+                *narrow = std::uint16_t(*c - *lo);
+        }
+    }
+    if (wide) {
+        std::vector<std::uint16_t>().swap(windowCorners_);
+        std::vector<std::uint32_t>().swap(cornerBase_);
+    }
 }
 
 template <class T>
@@ -642,17 +690,28 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
         if (blockShare.first == blockShare.second) return;
         float* window = threadScratch<float>(4 * std::size_t(kWindowFaces));
         const std::uint32_t* faceVerts = surface_.faceVerts.data();
+        const bool narrowCorners = !windowCorners_.empty();
+        const std::uint16_t* corners = windowCorners_.data();
+        const std::uint32_t* cornerBase = cornerBase_.data();
         const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
-        const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
+        const std::uint16_t* slots = windowSlots_.data();
         const std::uint32_t last = surface_.vertexCount - 1;
-        // Face normals [begin, end) into the window, slot f mod kWindowFaces. A 16-byte load at a
-        // vertex reads one value past its position: past the buffer only for the last vertex,
-        // whose faces are loaded value by value.
-        auto faceNormals = [&](std::uint32_t begin, std::uint32_t end) {
+        // Face normals [begin, end) into the window, slot f mod kWindowFaces, the corners narrow
+        // (`narrow`, a std::bool_constant) or the surface's. A 16-byte load at a vertex reads one
+        // value past its position: past the buffer only for the last vertex, whose faces are
+        // loaded value by value.
+        auto faceNormals = [&](std::uint32_t begin, std::uint32_t end, auto narrow) {
             auto quad = [&](std::uint32_t f, auto load) {
-                const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
-                _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)),
-                             quadNormal(load(c[0]), load(c[1]), load(c[2]), load(c[3])));
+                __m128 v[4];
+                if constexpr (decltype(narrow)::value) {
+                    const std::uint16_t* c = corners + 4 * std::size_t(f);
+                    const std::uint32_t base = cornerBase[f / kCornerRun];
+                    for (int k = 0; k < 4; ++k) v[k] = load(base + c[k]);
+                } else {
+                    const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
+                    for (int k = 0; k < 4; ++k) v[k] = load(c[k]);
+                }
+                _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)), quadNormal(v[0], v[1], v[2], v[3]));
             };
             auto wide = [&](std::uint32_t i) { return _mm_loadu_ps(p + 3 * std::size_t(i)); };
             auto safe = [&](std::uint32_t i) {
@@ -670,25 +729,36 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
                 }
             }
         };
-        // Vertex v's sum of face normals, in table order (as vertexNormalsSimd's).
-        auto faceSum = [&](std::uint32_t v) {
-            auto faceNormal = [&](std::uint32_t j) {
-                return _mm_load_ps(window + 4 * std::size_t(vertexFaces[j] & (kWindowFaces - 1)));
-            };
-            return faceNormalSum(vertexOffsets[v], vertexOffsets[v + 1], faceNormal);
+        // The sum of the face normals of vertexFaces' entries [begin, end), in that order (as
+        // vertexNormalsSimd's).
+        auto faceSum = [&](std::uint32_t begin, std::uint32_t end) {
+            auto faceNormal = [&](std::uint32_t j) { return _mm_load_ps(window + 4 * std::size_t(slots[j])); };
+            return faceNormalSum(begin, end, faceNormal);
         };
+        auto vertexSum = [&](std::uint32_t v) { return faceSum(vertexOffsets[v], vertexOffsets[v + 1]); };
         std::uint32_t done = windowFrom_[blockShare.first];  // faces [.., done) are in the window
         for (std::uint64_t b = blockShare.first; b < blockShare.second; ++b) {
             const std::uint32_t to = windowTo_[b];
             if (to > done) {
-                faceNormals(std::max(done, to - std::min(to, kWindowFaces)), to);
+                const std::uint32_t begin = std::max(done, to - std::min(to, kWindowFaces));
+                if (narrowCorners) faceNormals(begin, to, std::true_type{});
+                else faceNormals(begin, to, std::false_type{});
                 done = to;
             }
-            const std::uint32_t vEnd = std::min(last + 1, std::uint32_t(b + 1) * kWindowBlock);
             std::uint32_t v = std::uint32_t(b) * kWindowBlock;
+            if (fourFaceBlocks_[b]) {
+                // Four faces a vertex: the block's entries run on from its first vertex's.
+                const std::uint32_t j = vertexOffsets[v];
+                for (std::uint32_t i = 0; i < kWindowBlock; i += 4)
+                    storeFourNormals(out + 3 * std::size_t(v + i), faceSum(j + 4 * i, j + 4 * i + 4),
+                                     faceSum(j + 4 * i + 4, j + 4 * i + 8), faceSum(j + 4 * i + 8, j + 4 * i + 12),
+                                     faceSum(j + 4 * i + 12, j + 4 * i + 16));
+                continue;
+            }
+            const std::uint32_t vEnd = std::min(last + 1, std::uint32_t(b + 1) * kWindowBlock);
             for (; v + 4 <= vEnd; v += 4)
-                storeFourNormals(out + 3 * std::size_t(v), faceSum(v), faceSum(v + 1), faceSum(v + 2), faceSum(v + 3));
-            for (; v < vEnd; ++v) storeNormal(out + 3 * std::size_t(v), faceSum(v));
+                storeFourNormals(out + 3 * std::size_t(v), vertexSum(v), vertexSum(v + 1), vertexSum(v + 2), vertexSum(v + 3));
+            for (; v < vEnd; ++v) storeNormal(out + 3 * std::size_t(v), vertexSum(v));
         }
     } else {
         (void)p;

@@ -506,30 +506,34 @@ TEST(Evaluator, FloatNormalsAreBitIdenticalToTheDefinition) {
 }
 
 // A grid of n x n quads (vertices (n + 1)^2, row by row) whose faces are numbered row by row,
-// with the first and last faces' numbers swapped, or at random.
+// with the first and last faces' numbers swapped, or at random; with `unused` > 0 the vertices
+// from row n / 2 on are numbered `unused` higher, after as many vertices that no face has.
 enum class FaceNumbers { Rows, TwoSwapped, Random };
-SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers) {
+SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers, std::uint32_t unused = 0) {
     std::vector<std::uint32_t> number(std::size_t(n) * n);
     for (std::uint32_t f = 0; f < number.size(); ++f) number[f] = f;
     if (numbers == FaceNumbers::TwoSwapped) std::swap(number.front(), number.back());
     if (numbers == FaceNumbers::Random) std::shuffle(number.begin(), number.end(), std::mt19937(3));
     std::vector<std::array<Index, 4>> quads(number.size());
-    const auto at = [n](std::uint32_t x, std::uint32_t y) { return Index(y * (n + 1) + x); };
+    const auto at = [n, unused](std::uint32_t x, std::uint32_t y) {
+        return Index(y * (n + 1) + x + (y >= n / 2 ? unused : 0));
+    };
     for (std::uint32_t j = 0; j < n; ++j)
         for (std::uint32_t i = 0; i < n; ++i)
             quads[number[j * n + i]] = {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)};
     Faces faces;
-    faces.vertexCount = Index((n + 1) * (n + 1));
+    faces.vertexCount = Index((n + 1) * (n + 1) + unused);
     for (const auto& quad : quads) faces.addFace(quad);
     return buildSurfaceTable(std::move(faces));
 }
 
 // normals() in one pass (a window of face normals) gives the bits of the definition at 1 to 3
 // threads, twice in a row (the window reused): on the tiled form's drawing order of the cow and
-// on a grid numbered row by row (its last vertex's face the last face). The cow's canonical
-// order, the grid with its first and last faces' numbers swapped and one numbered at random
-// keep the two passes (a block of vertices there reads faces too far apart), as does a smaller
-// grid.
+// on a grid numbered row by row (its last vertex's face the last face), both with 16-bit
+// corners, and on a grid whose middle row of faces has corners 70,000 vertices apart (unused
+// vertices between), with the surface's. The cow's canonical order, the grid with its first and
+// last faces' numbers swapped and one numbered at random keep the two passes (a block of vertices
+// there reads faces too far apart), as does a smaller grid.
 TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
     // At least 2^19 faces each (below, the two passes are as fast: cpu_evaluator.cpp).
     const Hierarchy h = test::refine(load(test::dataPath("cow.obj")), 6);
@@ -538,12 +542,14 @@ TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
     ASSERT_EQ(tiled.tileCount(), 0u);
     const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(700, FaceNumbers::Rows),
                        rows = gridSurface(725, FaceNumbers::Rows), swapped = gridSurface(725, FaceNumbers::TwoSwapped),
-                       shuffled = gridSurface(725, FaceNumbers::Random);
+                       shuffled = gridSurface(725, FaceNumbers::Random),
+                       apart = gridSurface(725, FaceNumbers::Rows, 70000);
     ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 19);
     ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 19);
     ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 19);
     const std::pair<const SurfaceTable*, const char*> surfaces[] = {
         {&tiled.surface, "cow, drawing order"}, {&canonical, "cow, canonical order"}, {&rows, "grid"},
+        {&apart, "grid with unused vertices in the middle"},
         {&small, "grid of fewer than 2^19 faces"}, {&swapped, "grid, two faces swapped"},
         {&shuffled, "grid, numbered at random"}};
     for (const auto& [surface, name] : surfaces) {
@@ -557,7 +563,9 @@ TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
                 surface == &tiled.surface
                     ? std::make_unique<CpuEvaluator<float>>(tiled, 3, threads)
                     : std::make_unique<CpuEvaluator<float>>(perLevel, FactorizedTable{}, *surface, TableForm::PerLevel, 3, threads);
-            EXPECT_EQ(evaluator->normalsInOnePass(), surface == &tiled.surface || surface == &rows) << name;
+            EXPECT_EQ(evaluator->normalsInOnePass(), surface == &tiled.surface || surface == &rows || surface == &apart)
+                << name;
+            EXPECT_EQ(evaluator->normalsReadNarrowCorners(), surface == &tiled.surface || surface == &rows) << name;
             for (const int call : {1, 2}) {
                 std::vector<float> normals(expected.size(), -7.0f);
                 evaluator->normals(positions, normals);

@@ -121,6 +121,8 @@ public:
     bool normalsInTilePass() const { return tileNormals_.worthIt; }
     // normals() runs as one pass over a window of face normals (windowedNormalsSimd), not two.
     bool normalsInOnePass() const { return !windowTo_.empty(); }
+    // ... and reads each face's corners as 16-bit offsets (planNormalWindow), not the surface's.
+    bool normalsReadNarrowCorners() const { return !windowCorners_.empty(); }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
@@ -151,6 +153,7 @@ private:
     // passes, so the same bits.
     void windowedNormalsSimd(const T* positions, T* normals) const;
     void planNormalWindow();
+    void planNarrowSurface();  // its narrow copies of the surface
     // Both passes, inside a parallel region (a barrier between them).
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
@@ -176,6 +179,13 @@ private:
     // face that it or any later block reads, and one past the last face it reads.
     std::vector<std::uint32_t> windowFrom_, windowTo_;
     std::vector<std::uint32_t> lastVertexFaces_;  // the faces around the last vertex, ascending
+    // The one pass's narrow copies of the surface (planNormalWindow): per entry of vertexFaces its
+    // face's slot in the window; per block whether its vertices have 4 faces each (their offsets
+    // then implicit); per face corner the vertex less cornerBase_ of its run of kCornerRun faces
+    // (empty where a run's corners span 2^16 vertices or more: the surface's faceVerts instead).
+    std::vector<std::uint16_t> windowSlots_, windowCorners_;
+    std::vector<std::uint32_t> cornerBase_;
+    std::vector<std::uint8_t> fourFaceBlocks_;
     const TiledTable* tiled_ = nullptr;
     TileNormalSets tileNormals_;  // tiled form: normals in the tile pass, where worthIt
 };
