@@ -152,6 +152,31 @@ TEST(HostileOverflowLibrary, RequireFiniteFindsANonFiniteValueAnywhere) {
     checkEveryPlace<double>();
 }
 
+// A long array, scanned in pieces by several threads (topology/range.cpp): a NaN or an
+// infinity at either end, at both sides of a piece's border and within the last, short piece is
+// found; with a second one later, the first is named.
+TEST(HostileOverflowLibrary, RequireFiniteFindsANonFiniteValueInALongArray) {
+    constexpr std::size_t kPiece = std::size_t(1) << 18;
+    std::vector<float> values(5 * kPiece + 100);
+    for (std::size_t i = 0; i < values.size(); ++i) values[i] = float(i % 1000) - 500.0f;
+    EXPECT_NO_THROW(requireFinite(std::span<const float>(values), "in.obj", "refined"));
+    const std::size_t last = values.size() - 1;
+    for (std::size_t at : {std::size_t(0), kPiece - 1, kPiece, 3 * kPiece + 7, last})
+        for (const std::size_t also : {at, last})
+            for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+                std::vector<float> copy = values;
+                copy[at] = bad;
+                copy[also] = -std::numeric_limits<float>::infinity();
+                try {
+                    requireFinite(std::span<const float>(copy), "in.obj", "refined");
+                    ADD_FAILURE() << "no error at " << at;
+                } catch (const InputError& e) {
+                    EXPECT_TRUE(contains(e.what(), "in.obj: refined vertex " + std::to_string(at / 3 + 1) + " is not finite"))
+                        << e.what() << " (at " << at << ")";
+                }
+            }
+}
+
 // --- The library: every evaluator on out-of-range control points --------------------------
 
 struct Cube {

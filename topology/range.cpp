@@ -2,6 +2,7 @@
 // the check that no refined value leaving a command is non-finite.
 #include "psub/topology.h"
 
+#include <algorithm>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -29,9 +30,24 @@ bool allFinite(const T* values, std::size_t count) {
     return bad == 0;
 }
 
+// allFinite over long arrays by the OpenMP threads, in pieces of 2^18 values: `psub play` checks
+// every frame's positions and normals (6.7M values on the cow at 7 steps: 0.9 ms a frame on one
+// thread).
+template <class T>
+bool allFiniteByPieces(const T* values, std::size_t count) {
+    constexpr std::size_t kPiece = std::size_t(1) << 18;
+    if (count < 2 * kPiece) return allFinite(values, count);
+    const std::size_t pieces = (count - 1) / kPiece + 1;
+    bool finite = true;
+#pragma omp parallel for schedule(static) reduction(&& : finite)
+    for (std::size_t p = 0; p < pieces; ++p)
+        finite = allFinite(values + p * kPiece, std::min(kPiece, count - p * kPiece)) && finite;
+    return finite;
+}
+
 template <class T>
 void requireFiniteValues(std::span<const T> xyz, const std::string& input, const std::string& what) {
-    if (allFinite(xyz.data(), xyz.size())) return;
+    if (allFiniteByPieces(xyz.data(), xyz.size())) return;
     for (std::size_t i = 0; i < xyz.size(); ++i)
         if (!std::isfinite(xyz[i]))
             throw InputError(input + ": " + what + " vertex " + std::to_string(i / 3 + 1) +
