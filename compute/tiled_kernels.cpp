@@ -35,26 +35,33 @@ std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 #define PSUB_IVDEP
 #endif
 
-// Calls point(a) for a = 0 .. count - 1 in blocks of 16: a loop of a fixed 16 steps is vectorised
-// whole (one iteration at AVX-512's width), with no scalar remainder; where count is no multiple
-// of 16 the last block overlaps the one before (points computed twice, the same values: each
-// point is a function of rows that no point writes). A small tile's rows (36 steps at a lattice
-// of 72) spent as long in their scalar remainder as in their vectors. Counts under 16 step by step.
-template <class Point>
-[[gnu::always_inline]] inline void inBlocksOf16(std::size_t count, Point point) {
-    constexpr std::size_t kBlock = 16;
-    if (count < kBlock) {
+// Calls point(a) for a = 0 .. count - 1 in blocks of Block steps, Block the vector width of the
+// variant (16 floats with AVX-512, 8 with AVX2; half as many doubles): a loop of a fixed Block
+// steps is vectorised whole, with no scalar remainder; where count is no multiple of Block the
+// last block overlaps the one before (points computed twice, the same values: each point is a
+// function of rows that no point writes). A small tile's rows (36 steps at a lattice of 72)
+// spent as long in their scalar remainder as in their vectors. Counts under Block step by step.
+// Block 0 (the baseline, 4 floats a vector: a remainder of at most 3): one plain loop; blocks
+// of 4 vectorised badly there (2x slower), blocks of 16 overlapped too much (14% slower).
+template <std::size_t Block, class Point>
+[[gnu::always_inline]] inline void inBlocks(std::size_t count, Point point) {
+    if constexpr (Block == 0) {
+        PSUB_IVDEP
+        for (std::size_t a = 0; a < count; ++a) point(a);
+        return;
+    }
+    if (count < Block) {
         for (std::size_t a = 0; a < count; ++a) point(a);
         return;
     }
     std::size_t a = 0;
-    for (; a + kBlock <= count; a += kBlock) {
+    for (; a + Block <= count; a += Block) {
         PSUB_IVDEP
-        for (std::size_t b = 0; b < kBlock; ++b) point(a + b);
+        for (std::size_t b = 0; b < Block; ++b) point(a + b);
     }
     if (a == count) return;
     PSUB_IVDEP
-    for (std::size_t b = 0; b < kBlock; ++b) point(count - kBlock + b);
+    for (std::size_t b = 0; b < Block; ++b) point(count - Block + b);
 }
 
 // Row j (1 <= j <= n - 2) of the quincunx level of the n x n grid `c` (spacing 1): v, the
@@ -62,7 +69,7 @@ template <class Point>
 // the cells whose first corner is (x, j), f[x] for x = 0 .. n - 2. The F-point of (x, j) is
 // made in the loop of the V-point of (x, j), whose loads it reuses (the kernel is bound by its
 // loads and stores, not its arithmetic).
-template <class T>
+template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void quincunxRow(const T* __restrict c, std::size_t n, std::size_t j, T* __restrict v,
                                                T* __restrict f) {
     const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
@@ -70,7 +77,7 @@ template <class T>
     const T* mid = c + j * n;
     const T* up = c + (j + 1) * n;
     f[0] = quarter * ((mid[0] + up[1]) + (mid[1] + up[0]));
-    inBlocksOf16(n - 2, [&](std::size_t a) __attribute__((always_inline)) {
+    inBlocks<Block>(n - 2, [&](std::size_t a) __attribute__((always_inline)) {
         const std::size_t x = a + 1;
         v[x - 1] = quarter * mid[x] + eighth * ((down[x] + up[x]) + (mid[x - 1] + mid[x + 1])) +
                    sixteenth * ((down[x - 1] + up[x + 1]) + (down[x + 1] + up[x - 1]));
@@ -85,10 +92,10 @@ template <class T>
 // V(i, j) (even p), diamonds across x (odd p); row q + 1, between c's rows j and j + 1:
 // diamonds across y (even p), V-points of F(i, j) (odd p). Both rows in one loop, each point
 // written in place: their four kinds of points share most of their loads (the kernel is bound
-// by its loads and stores, not its arithmetic), in blocks of 16 (inBlocksOf16). The lambdas
-// are forced inline: called from inBlocksOf16's lambda GCC otherwise called them point by point
+// by its loads and stores, not its arithmetic), in blocks (inBlocks). The lambdas
+// are forced inline: called from inBlocks's lambda GCC otherwise called them point by point
 // (3x slower).
-template <class T>
+template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void fineRows(const T* __restrict v0, const T* __restrict vm, const T* __restrict v1,
                                             const T* __restrict f0, const T* __restrict fm, const T* __restrict fp,
                                             std::size_t i0, std::size_t count, T* __restrict out,
@@ -105,14 +112,14 @@ template <class T>
                sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
     };
     if (!next) {
-        inBlocksOf16(count, [&](std::size_t a) __attribute__((always_inline)) {
+        inBlocks<Block>(count, [&](std::size_t a) __attribute__((always_inline)) {
             out[2 * a] = vertexOfV(a + i0);
             out[2 * a + 1] = acrossX(a + i0);
         });
         out[2 * count] = vertexOfV(count + i0);
         return;
     }
-    inBlocksOf16(count, [&](std::size_t a) __attribute__((always_inline)) {
+    inBlocks<Block>(count, [&](std::size_t a) __attribute__((always_inline)) {
         out[2 * a] = vertexOfV(a + i0);
         out[2 * a + 1] = acrossX(a + i0);
         next[2 * a] = acrossY(a + i0);
@@ -131,14 +138,14 @@ template <class T>
 // of F-points, row j in slot j mod 3), so the quincunx level never leaves the first-level
 // cache (as whole grids it took 2 x 66 KB at the largest tiles): call for q = from, from + 2,
 // ... in turn, with the same ring.
-template <class T>
+template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void rowPairBody(const T* __restrict c, std::size_t n, std::size_t from,
                                                std::size_t count, std::size_t q, T* __restrict out,
                                                T* __restrict ring) {
     const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2, j = q / 2 + 2;
     T* const v[3] = {ring, ring + nv, ring + 2 * nv};
     T* const cells[3] = {ring + 3 * nv, ring + 3 * nv + nf, ring + 3 * nv + 2 * nf};
-    const auto row = [&](std::size_t r) { quincunxRow(c, n, r, v[r % 3], cells[r % 3]); };
+    const auto row = [&](std::size_t r) { quincunxRow<Block>(c, n, r, v[r % 3], cells[r % 3]); };
     if (q == from) {
         row(j - 1);
         row(j);
@@ -146,16 +153,16 @@ template <class T>
     row(j + 1);
     // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
     const bool last = q == from + 2 * count;
-    fineRows(v[j % 3], v[(j - 1) % 3], v[(j + 1) % 3], cells[j % 3], cells[(j - 1) % 3],
+    fineRows<Block>(v[j % 3], v[(j - 1) % 3], v[(j + 1) % 3], cells[j % 3], cells[(j - 1) % 3],
              last ? cells[j % 3] : cells[(j + 1) % 3], i0, count, out, last ? nullptr : out + width);
 }
 
 // The whole double step (rowPairBody's points), into `f`.
-template <class T>
+template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void doubleStepBody(const T* __restrict c, std::size_t n, std::size_t from,
                                                   std::size_t count, T* __restrict f, T* __restrict ring) {
     for (std::size_t q = from; q <= from + 2 * count; q += 2)
-        rowPairBody(c, n, from, count, q, f + (q - from) * (2 * count + 1), ring);
+        rowPairBody<Block>(c, n, from, count, q, f + (q - from) * (2 * count + 1), ring);
 }
 
 // Three planes of `count` values each -> count xyz triples.
@@ -173,11 +180,11 @@ template <class T>
 // the cross product of its diagonals, (p(x+1, y+1) - p(x, y)) x (p(x, y+1) - p(x+1, y)), corners
 // counter-clockwise in the tile's frame as in the surface's faces. `x`, `y`, `z`: the row's
 // first value in each plane (the next row `side` values on).
-template <class T>
+template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void quadNormalsBody(const T* __restrict x, const T* __restrict y, const T* __restrict z,
                                                    std::size_t side, std::size_t L, T* __restrict nx,
                                                    T* __restrict ny, T* __restrict nz) {
-    inBlocksOf16(L, [&](std::size_t i) __attribute__((always_inline)) {
+    inBlocks<Block>(L, [&](std::size_t i) __attribute__((always_inline)) {
         const T ax = x[side + i + 1] - x[i], ay = y[side + i + 1] - y[i], az = z[side + i + 1] - z[i];
         const T bx = x[side + i] - x[i + 1], by = y[side + i] - y[i + 1], bz = z[side + i] - z[i + 1];
         nx[i] = ay * bz - az * by;
@@ -191,11 +198,11 @@ template <class T>
 // them), scaled to length 1 (0 where the sum is 0), as normals() does. The file is compiled
 // without errno for math functions and without trapping floating-point compares
 // (compute/CMakeLists.txt), so the square root and the select vectorise (same results).
-template <class T>
+template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void vertexNormalsBody(const T* __restrict lo, const T* __restrict hi, std::size_t stride,
                                                      std::size_t L, T* __restrict nx, T* __restrict ny,
                                                      T* __restrict nz) {
-    inBlocksOf16(L - 1, [&](std::size_t a) __attribute__((always_inline)) {
+    inBlocks<Block>(L - 1, [&](std::size_t a) __attribute__((always_inline)) {
         const std::size_t i = a + 1;
         const T sx = (lo[i - 1] + lo[i]) + (hi[i - 1] + hi[i]);
         const T sy = (lo[stride + i - 1] + lo[stride + i]) + (hi[stride + i - 1] + hi[stride + i]);
@@ -242,7 +249,8 @@ std::size_t baselineStreamCopy(const T* from, std::size_t done, std::size_t coun
 
 // The kernel's steps, compiled once per instruction set (AVX-512, AVX2 and the x86-64
 // baseline: the bodies above are inlined into each variant and vectorised for its target),
-// one set chosen at run time (tileKernelInstructions; tests force each in turn). No fused
+// one set chosen at run time (tileKernelInstructions; tests force each in turn), the rows in
+// blocks of the set's vector width (BYTES, inBlocks; 0 in the baseline: plain loops). No fused
 // multiply-add in any (the file is built with -ffp-contract=off: AVX-512F has fused
 // multiply-adds of its own), so all give the same bits.
 template <class T>
@@ -255,44 +263,44 @@ struct TileSteps {
     std::size_t (*streamCopy)(const T* from, std::size_t done, std::size_t count, T* to, bool last);
 };
 
-#define PSUB_TILE_STEPS(NAME, TARGET)                                                                            \
-    template <class T>                                                                                           \
-    TARGET void NAME##DoubleStep(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f,          \
-                                 T* ring) {                                                                      \
-        doubleStepBody(c, n, from, count, f, ring);                                                              \
-    }                                                                                                            \
-    template <class T>                                                                                           \
-    TARGET void NAME##RowPair(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q,    \
-                              T* out, T* ring) {                                                                 \
-        rowPairBody(c, n, from, count, q, out, ring);                                                            \
-    }                                                                                                            \
-    template <class T>                                                                                           \
-    TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,    \
-                                  T* ny, T* nz) {                                                                \
-        quadNormalsBody(x, y, z, side, L, nx, ny, nz);                                                           \
-    }                                                                                                            \
-    template <class T>                                                                                           \
-    TARGET void NAME##VertexNormals(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny,   \
-                                    T* nz) {                                                                     \
-        vertexNormalsBody(lo, hi, stride, L, nx, ny, nz);                                                        \
-    }                                                                                                            \
-    template <class T>                                                                                           \
-    TARGET void NAME##Interleave3(const T* x, const T* y, const T* z, std::size_t count, T* out) {              \
-        interleave3Body(x, y, z, count, out);                                                                    \
-    }                                                                                                            \
-    template <class T>                                                                                           \
-    constexpr TileSteps<T> NAME##Steps{&NAME##DoubleStep<T>, &NAME##RowPair<T>, &NAME##QuadNormals<T>,          \
+#define PSUB_TILE_STEPS(NAME, TARGET, BYTES)                                                                         \
+    template <class T>                                                                                               \
+    TARGET void NAME##DoubleStep(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f,               \
+                                 T* ring) {                                                                          \
+        doubleStepBody<BYTES / sizeof(T)>(c, n, from, count, f, ring);                                               \
+    }                                                                                                                \
+    template <class T>                                                                                               \
+    TARGET void NAME##RowPair(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q,         \
+                              T* out, T* ring) {                                                                     \
+        rowPairBody<BYTES / sizeof(T)>(c, n, from, count, q, out, ring);                                             \
+    }                                                                                                                \
+    template <class T>                                                                                               \
+    TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,        \
+                                  T* ny, T* nz) {                                                                    \
+        quadNormalsBody<BYTES / sizeof(T)>(x, y, z, side, L, nx, ny, nz);                                            \
+    }                                                                                                                \
+    template <class T>                                                                                               \
+    TARGET void NAME##VertexNormals(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny,       \
+                                    T* nz) {                                                                         \
+        vertexNormalsBody<BYTES / sizeof(T)>(lo, hi, stride, L, nx, ny, nz);                                         \
+    }                                                                                                                \
+    template <class T>                                                                                               \
+    TARGET void NAME##Interleave3(const T* x, const T* y, const T* z, std::size_t count, T* out) {                   \
+        interleave3Body(x, y, z, count, out);                                                                        \
+    }                                                                                                                \
+    template <class T>                                                                                               \
+    constexpr TileSteps<T> NAME##Steps{&NAME##DoubleStep<T>, &NAME##RowPair<T>, &NAME##QuadNormals<T>,               \
                                        &NAME##VertexNormals<T>, &NAME##Interleave3<T>, &NAME##StreamCopy<T>};
 
-PSUB_TILE_STEPS(baseline, )
+PSUB_TILE_STEPS(baseline, , 0)
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PSUB_TILE_X86 1
 PSUB_STREAM_COPY(avx2, __attribute__((target("avx2"))), 32, _mm256_stream_ps(to + i, _mm256_loadu_ps(from + i)),
                  _mm256_stream_pd(to + i, _mm256_loadu_pd(from + i)))
 PSUB_STREAM_COPY(avx512, __attribute__((target("avx512f"))), 64, _mm512_stream_ps(to + i, _mm512_loadu_ps(from + i)),
                  _mm512_stream_pd(to + i, _mm512_loadu_pd(from + i)))
-PSUB_TILE_STEPS(avx2, __attribute__((target("avx2"))))
-PSUB_TILE_STEPS(avx512, __attribute__((target("avx512f"))))
+PSUB_TILE_STEPS(avx2, __attribute__((target("avx2"))), 32)
+PSUB_TILE_STEPS(avx512, __attribute__((target("avx512f"))), 64)
 #endif
 #undef PSUB_TILE_STEPS
 #undef PSUB_STREAM_COPY
