@@ -36,8 +36,8 @@ std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 #endif
 
 // Calls point(a) for a = 0 .. count - 1 in blocks of Block steps, Block the vector width of the
-// variant (16 floats with AVX-512, 8 with AVX2; half as many doubles): a loop of a fixed Block
-// steps is vectorised whole, with no scalar remainder; where count is no multiple of Block the
+// variant, at least 8 (kBlockSteps: 16 floats with AVX-512, 8 with AVX2; 8 doubles with either):
+// a loop of a fixed Block steps is vectorised whole, with no scalar remainder; where count is no multiple of Block the
 // last block overlaps the one before (points computed twice, the same values: each point is a
 // function of rows that no point writes). A small tile's rows (36 steps at a lattice of 72)
 // spent as long in their scalar remainder as in their vectors. Counts under Block step by step.
@@ -263,26 +263,31 @@ struct TileSteps {
     std::size_t (*streamCopy)(const T* from, std::size_t done, std::size_t count, T* to, bool last);
 };
 
+// The steps of inBlocks for a variant of vectors of BYTES: one vector of T, at least 8 (a block
+// of 4 vectorised badly: AVX2's doubles 2x slower); 0 for the baseline (BYTES 0).
+template <std::size_t Bytes, class T>
+constexpr std::size_t kBlockSteps = Bytes == 0 ? 0 : std::max<std::size_t>(8, Bytes / sizeof(T));
+
 #define PSUB_TILE_STEPS(NAME, TARGET, BYTES)                                                                         \
     template <class T>                                                                                               \
     TARGET void NAME##DoubleStep(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f,               \
                                  T* ring) {                                                                          \
-        doubleStepBody<BYTES / sizeof(T)>(c, n, from, count, f, ring);                                               \
+        doubleStepBody<kBlockSteps<BYTES, T>>(c, n, from, count, f, ring);                                           \
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##RowPair(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q,         \
                               T* out, T* ring) {                                                                     \
-        rowPairBody<BYTES / sizeof(T)>(c, n, from, count, q, out, ring);                                             \
+        rowPairBody<kBlockSteps<BYTES, T>>(c, n, from, count, q, out, ring);                                         \
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,        \
                                   T* ny, T* nz) {                                                                    \
-        quadNormalsBody<BYTES / sizeof(T)>(x, y, z, side, L, nx, ny, nz);                                            \
+        quadNormalsBody<kBlockSteps<BYTES, T>>(x, y, z, side, L, nx, ny, nz);                                        \
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##VertexNormals(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny,       \
                                     T* nz) {                                                                         \
-        vertexNormalsBody<BYTES / sizeof(T)>(lo, hi, stride, L, nx, ny, nz);                                         \
+        vertexNormalsBody<kBlockSteps<BYTES, T>>(lo, hi, stride, L, nx, ny, nz);                                     \
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##Interleave3(const T* x, const T* y, const T* z, std::size_t count, T* out) {                   \
