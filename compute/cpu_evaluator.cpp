@@ -238,8 +238,9 @@ void CpuEvaluator<T>::planNormalWindow() {
 
 // The one pass reads 16-bit copies of the surface's indices where they fit, and no offsets
 // where a block's vertices have four faces each: of the 80 MB the pass moves on the cow at 7
-// steps, 18 MB fewer, and it is bound by those bytes (normals 3.1 -> 2.5 ms there, the same
-// bits; bench/README.md, "Session 29").
+// steps, 18 MB fewer, and it is bound by those bytes where the memory system is busy (normals
+// 3.1 -> 2.5 ms there then, within 2% in a quiet sitting; the same bits; bench/README.md,
+// "Session 29").
 template <class T>
 void CpuEvaluator<T>::planNarrowSurface() {
     const SurfaceTable& surface = surface_;
@@ -260,7 +261,8 @@ void CpuEvaluator<T>::planNarrowSurface() {
         for (std::uint32_t b = 0; b < blocks; ++b) {
             const std::uint32_t begin = b * kWindowBlock, end = std::min(vertexCount, begin + kWindowBlock);
             bool four = end - begin == kWindowBlock;
-            for (std::uint32_t v = begin; v < end && four; ++v) four = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] == 4;
+            for (std::uint32_t v = begin; v < end && four; ++v)
+                four = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] == 4;
             fourFaceBlocks_[b] = four;
         }
 #pragma omp for schedule(static) reduction(|| : wide)
@@ -757,7 +759,8 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             }
             const std::uint32_t vEnd = std::min(last + 1, std::uint32_t(b + 1) * kWindowBlock);
             for (; v + 4 <= vEnd; v += 4)
-                storeFourNormals(out + 3 * std::size_t(v), vertexSum(v), vertexSum(v + 1), vertexSum(v + 2), vertexSum(v + 3));
+                storeFourNormals(out + 3 * std::size_t(v), vertexSum(v), vertexSum(v + 1), vertexSum(v + 2),
+                                 vertexSum(v + 3));
             for (; v < vEnd; ++v) storeNormal(out + 3 * std::size_t(v), vertexSum(v));
         }
     } else {

@@ -36,13 +36,14 @@ std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
 #endif
 
 // Calls point(a) for a = 0 .. count - 1 in blocks of Block steps, Block the vector width of the
-// variant, at least 8 (kBlockSteps: 16 floats with AVX-512, 8 with AVX2; 8 doubles with either):
-// a loop of a fixed Block steps is vectorised whole, with no scalar remainder; where count is no multiple of Block the
-// last block overlaps the one before (points computed twice, the same values: each point is a
-// function of rows that no point writes). A small tile's rows (36 steps at a lattice of 72)
-// spent as long in their scalar remainder as in their vectors. Counts under Block step by step.
-// Block 0 (the baseline, 4 floats a vector: a remainder of at most 3): one plain loop; blocks
-// of 4 vectorised badly there (2x slower), blocks of 16 overlapped too much (14% slower).
+// variant, at least 8 (kBlockSteps: 16 floats with AVX-512, 8 with AVX2; 8 doubles with
+// either): a loop of a fixed Block steps is vectorised whole, with no scalar remainder; where
+// count is no multiple of Block the last block overlaps the one before (points computed twice,
+// the same values: each point is a function of rows that no point writes). A small tile's rows
+// (36 steps at a lattice of 72) spent as long in their scalar remainder as in their vectors.
+// Counts under Block step by step. Block 0 (the baseline, 4 floats a vector: a remainder of at
+// most 3): one plain loop; blocks of 4 vectorised badly there (2x slower), blocks of 16
+// overlapped too much (14% slower).
 template <std::size_t Block, class Point>
 [[gnu::always_inline]] inline void inBlocks(std::size_t count, Point point) {
     if constexpr (Block == 0) {
@@ -105,8 +106,12 @@ template <std::size_t Block, class T>
         return quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
                sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + v1[i - 1]));
     };
-    const auto acrossX = [&](std::size_t i) __attribute__((always_inline)) { return quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i])); };
-    const auto acrossY = [&](std::size_t i) __attribute__((always_inline)) { return quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i])); };
+    const auto acrossX = [&](std::size_t i) __attribute__((always_inline)) {
+        return quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i]));
+    };
+    const auto acrossY = [&](std::size_t i) __attribute__((always_inline)) {
+        return quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i]));
+    };
     const auto vertexOfF = [&](std::size_t i) __attribute__((always_inline)) {
         return quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
                sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
@@ -154,7 +159,7 @@ template <std::size_t Block, class T>
     // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
     const bool last = q == from + 2 * count;
     fineRows<Block>(v[j % 3], v[(j - 1) % 3], v[(j + 1) % 3], cells[j % 3], cells[(j - 1) % 3],
-             last ? cells[j % 3] : cells[(j + 1) % 3], i0, count, out, last ? nullptr : out + width);
+                    last ? cells[j % 3] : cells[(j + 1) % 3], i0, count, out, last ? nullptr : out + width);
 }
 
 // The whole double step (rowPairBody's points), into `f`.
