@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <type_traits>
 
 namespace psub {
@@ -60,7 +61,11 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
 // buffer only for the parent level's last vertex of a packed buffer, which is loaded value
 // by value, unless the buffer has room past it (`Padded3`: packed, readable past the end), when
 // no load is tested and the stride is known.
-template <int N, int M, bool Padded3>
+// `Lean` (N > 0, M = 0, and diagonal x 0 = +0): the sums start from their first term, not from
+// 0 + it. Adding 0 changes nothing but the sign of a zero (0 + -0 = +0), and the row's last
+// addition, of diagonal x 0 = +0, turns every zero positive anyway, so the bits are the same
+// (the cow at 7 steps: 4.2-4.3 against 4.4-4.6 ms a frame on one thread).
+template <int N, int M, bool Padded3, bool Lean = false>
 void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                     const float* source, BufferLayout sl, std::uint32_t sourceCount, float* destination,
                     BufferLayout dl, bool ascending) {
@@ -81,8 +86,14 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     const std::uint32_t* indices = table.indices.data() + g.indexBegin;
     const std::uint32_t* destinations = table.destinations.data() + g.rowBegin;
     const __m128 zero = _mm_setzero_ps();
+    const __m128 diagonalTerm = _mm_mul_ps(diagonal, zero);
     auto row = [&](std::uint64_t r) {
         const std::uint32_t* ix = indices + r * width;
+        if constexpr (Lean) {
+            __m128 edges = load(ix[1]);
+            for (std::uint32_t j = 2; j <= n; ++j) edges = _mm_add_ps(edges, load(ix[j]));
+            return _mm_add_ps(_mm_add_ps(_mm_mul_ps(centre, load(ix[0])), _mm_mul_ps(edge, edges)), diagonalTerm);
+        }
         const __m128 acc = _mm_add_ps(zero, _mm_mul_ps(centre, load(ix[0])));
         __m128 edges = zero, diagonals = zero;
         if (N != 0)
@@ -124,7 +135,14 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
     if constexpr (std::is_same_v<T, float> && W == 3) {
         // Untested loads: the cow's frame at 7 steps a fifth shorter (docs/design.md).
         const bool padded3 = sourcePadded && sl.offset == 0 && sl.stride == 3;
+        // Rows without diagonals whose diagonal term, diagonal x 0, is +0 (most rows: face points,
+        // vertex points from face points) skip the two additions of 0 (`Lean`): the same bits.
+        const bool lean = g.n > 0 && g.m == 0 && !std::signbit(g.diagonal);
         const auto apply = [&]<int N, int M>() {
+            if constexpr (N > 0 && M == 0) {
+                if (lean && padded3) return applyGroupSse3<N, M, true, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+                if (lean) return applyGroupSse3<N, M, false, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+            }
             if (padded3) return applyGroupSse3<N, M, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
             applyGroupSse3<N, M, false>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
         };
