@@ -122,6 +122,10 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
         }
         return;
     }
+    if (dl.stride == 3 && dl.offset == 0) {  // packed: the stride known
+        for (std::uint64_t r = r0; r < r1; ++r) store3(destination + 3 * std::size_t(destinations[r]), row(r));
+        return;
+    }
     for (std::uint64_t r = r0; r < r1; ++r)
         store3(destination + std::size_t(destinations[r]) * dl.stride + dl.offset, row(r));
 }
