@@ -462,11 +462,13 @@ namespace {
 __m128 yzx(__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 0, 2, 1)); }
 __m128 zxy(__m128 v) { return _mm_shuffle_ps(v, v, _MM_SHUFFLE(0, 1, 0, 2)); }
 
-// (v2 - v0) x (v3 - v1), as the scalar pass; the 4th value 0.
+// (v2 - v0) x (v3 - v1), as the scalar pass; the 4th value 0. Three shuffles, not four:
+// c = a b.yzx - a.yzx b holds the cross product's z, x, y (c.x = a.x b.y - a.y b.x, ...), the
+// scalar pass's products and differences, so c.yzx has its bits.
 __m128 quadNormal(__m128 v0, __m128 v1, __m128 v2, __m128 v3) {
     const __m128 a = _mm_sub_ps(v2, v0), b = _mm_sub_ps(v3, v1);
-    const __m128 n = _mm_sub_ps(_mm_mul_ps(yzx(a), zxy(b)), _mm_mul_ps(zxy(a), yzx(b)));
-    return _mm_and_ps(n, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0)));
+    const __m128 c = _mm_sub_ps(_mm_mul_ps(a, yzx(b)), _mm_mul_ps(yzx(a), b));
+    return _mm_and_ps(yzx(c), _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0)));
 }
 
 // Four sums normalised side by side, transposed (x, y and z of the four in one register
@@ -487,7 +489,7 @@ void store3(float* o, __m128 unit) {
 
 // The unit normals of four consecutive vertices from their sums (x, y, z, -), written as 48
 // bytes at `o`.
-void storeFourNormals(float* o, __m128 x, __m128 y, __m128 z, __m128 w) {
+[[gnu::always_inline]] inline void storeFourNormals(float* o, __m128 x, __m128 y, __m128 z, __m128 w) {
     normaliseFour(x, y, z, w);
     // x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3
     const __m128 xy01 = _mm_unpacklo_ps(x, y), xy23 = _mm_unpackhi_ps(x, y);
@@ -703,20 +705,26 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
         // value past its position: past the buffer only for the last vertex, whose faces are
         // loaded value by value.
         auto faceNormals = [&](std::uint32_t begin, std::uint32_t end, auto narrow) {
+            // Face f's corners as a base vertex and four offsets from it.
             auto quad = [&](std::uint32_t f, auto load) {
                 __m128 v[4];
                 if constexpr (decltype(narrow)::value) {
                     const std::uint16_t* c = corners + 4 * std::size_t(f);
                     const std::uint32_t base = cornerBase[f / kCornerRun];
-                    for (int k = 0; k < 4; ++k) v[k] = load(base + c[k]);
+                    for (int k = 0; k < 4; ++k) v[k] = load(base, c[k]);
                 } else {
                     const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
-                    for (int k = 0; k < 4; ++k) v[k] = load(c[k]);
+                    for (int k = 0; k < 4; ++k) v[k] = load(0u, c[k]);
                 }
                 _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)), quadNormal(v[0], v[1], v[2], v[3]));
             };
-            auto wide = [&](std::uint32_t i) { return _mm_loadu_ps(p + 3 * std::size_t(i)); };
-            auto safe = [&](std::uint32_t i) {
+            // The offset widened to 64 bits with the base, not after the sum: one instruction
+            // fewer a corner (GCC zero-extended the 32-bit sum).
+            auto wide = [&](std::uint32_t base, std::uint32_t offset) {
+                return _mm_loadu_ps(p + 3 * (std::size_t(base) + offset));
+            };
+            auto safe = [&](std::uint32_t base, std::uint32_t offset) {
+                const std::uint32_t i = base + offset;
                 const float* q = p + 3 * std::size_t(i);
                 return i < last ? _mm_loadu_ps(q) : _mm_setr_ps(q[0], q[1], q[2], 0.0f);
             };
