@@ -240,7 +240,9 @@ void CpuEvaluator<T>::planNormalWindow() {
 // where a block's vertices have four faces each: of the 80 MB the pass moves on the cow at 7
 // steps, 18 MB fewer, and it is bound by those bytes where the memory system is busy (normals
 // 3.1 -> 2.5 ms there then, within 2% in a quiet sitting; the same bits; bench/README.md,
-// "Session 29").
+// "Session 29"). The copies are scaled for x86 addressing (a slot by 2, a corner by 3), so a
+// corner costs two instructions, not four: where the memory system is quiet the pass is bound
+// by its instructions (2.13 -> 1.82 ms, "Session 30").
 template <class T>
 void CpuEvaluator<T>::planNarrowSurface() {
     const SurfaceTable& surface = surface_;
@@ -256,7 +258,7 @@ void CpuEvaluator<T>::planNarrowSurface() {
     {
 #pragma omp for schedule(static)
         for (std::size_t j = 0; j < entries; ++j)
-            windowSlots_[j] = std::uint16_t(surface.vertexFaces[j] & (kWindowFaces - 1));
+            windowSlots_[j] = std::uint16_t(2 * (surface.vertexFaces[j] & (kWindowFaces - 1)));
 #pragma omp for schedule(static) nowait
         for (std::uint32_t b = 0; b < blocks; ++b) {
             const std::uint32_t begin = b * kWindowBlock, end = std::min(vertexCount, begin + kWindowBlock);
@@ -271,9 +273,9 @@ void CpuEvaluator<T>::planNarrowSurface() {
             const std::uint32_t* cEnd = surface.faceVerts.data() + 4 * std::min(faces, kCornerRun * (r + 1));
             const auto [lo, hi] = std::minmax_element(c, cEnd);
             cornerBase_[r] = *lo;
-            wide = wide || *hi - *lo > UINT16_MAX;
+            wide = wide || *hi - *lo > UINT16_MAX / 3;
             for (std::uint16_t* narrow = windowCorners_.data() + (c - surface.faceVerts.data()); c < cEnd; ++c, ++narrow)
-                *narrow = std::uint16_t(*c - *lo);
+                *narrow = std::uint16_t(3 * (*c - *lo));
         }
     }
     if (wide) {
@@ -701,30 +703,26 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
         const std::uint16_t* slots = windowSlots_.data();
         const std::uint32_t last = surface_.vertexCount - 1;
         // Face normals [begin, end) into the window, slot f mod kWindowFaces, the corners narrow
-        // (`narrow`, a std::bool_constant) or the surface's. A 16-byte load at a vertex reads one
-        // value past its position: past the buffer only for the last vertex, whose faces are
-        // loaded value by value.
+        // (`narrow`, a std::bool_constant: a run's base address and each corner's offset in
+        // floats, two instructions a corner) or the surface's. A 16-byte load at a vertex reads
+        // one value past its position: past the buffer only for the last vertex, whose faces
+        // take the surface's corners and load it value by value.
         auto faceNormals = [&](std::uint32_t begin, std::uint32_t end, auto narrow) {
-            // Face f's corners as a base vertex and four offsets from it.
-            auto quad = [&](std::uint32_t f, auto load) {
-                __m128 v[4];
+            auto store = [&](std::uint32_t f, __m128 v0, __m128 v1, __m128 v2, __m128 v3) {
+                _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)), quadNormal(v0, v1, v2, v3));
+            };
+            auto quad = [&](std::uint32_t f) {
                 if constexpr (decltype(narrow)::value) {
                     const std::uint16_t* c = corners + 4 * std::size_t(f);
-                    const std::uint32_t base = cornerBase[f / kCornerRun];
-                    for (int k = 0; k < 4; ++k) v[k] = load(base, c[k]);
+                    const float* q = p + 3 * std::size_t(cornerBase[f / kCornerRun]);
+                    store(f, _mm_loadu_ps(q + c[0]), _mm_loadu_ps(q + c[1]), _mm_loadu_ps(q + c[2]), _mm_loadu_ps(q + c[3]));
                 } else {
                     const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
-                    for (int k = 0; k < 4; ++k) v[k] = load(0u, c[k]);
+                    store(f, _mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
+                          _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3])));
                 }
-                _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)), quadNormal(v[0], v[1], v[2], v[3]));
             };
-            // The offset widened to 64 bits with the base, not after the sum: one instruction
-            // fewer a corner (GCC zero-extended the 32-bit sum).
-            auto wide = [&](std::uint32_t base, std::uint32_t offset) {
-                return _mm_loadu_ps(p + 3 * (std::size_t(base) + offset));
-            };
-            auto safe = [&](std::uint32_t base, std::uint32_t offset) {
-                const std::uint32_t i = base + offset;
+            auto safe = [&](std::uint32_t i) {
                 const float* q = p + 3 * std::size_t(i);
                 return i < last ? _mm_loadu_ps(q) : _mm_setr_ps(q[0], q[1], q[2], 0.0f);
             };
@@ -732,17 +730,18 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             const std::uint32_t* lEnd = lastVertexFaces_.data() + lastVertexFaces_.size();
             for (std::uint32_t f = begin; f < end;) {
                 const std::uint32_t stop = l == lEnd ? end : std::min(*l, end);
-                for (; f < stop; ++f) quad(f, wide);
+                for (; f < stop; ++f) quad(f);
                 if (f < end) {
-                    quad(f++, safe);
-                    ++l;
+                    const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
+                    store(f, safe(c[0]), safe(c[1]), safe(c[2]), safe(c[3]));
+                    ++f, ++l;
                 }
             }
         };
         // The sum of the face normals of vertexFaces' entries [begin, end), in that order (as
         // vertexNormalsSimd's).
         auto faceSum = [&](std::uint32_t begin, std::uint32_t end) {
-            auto faceNormal = [&](std::uint32_t j) { return _mm_load_ps(window + 4 * std::size_t(slots[j])); };
+            auto faceNormal = [&](std::uint32_t j) { return _mm_load_ps(window + 2 * std::size_t(slots[j])); };
             return faceNormalSum(begin, end, faceNormal);
         };
         auto vertexSum = [&](std::uint32_t v) { return faceSum(vertexOffsets[v], vertexOffsets[v + 1]); };

@@ -575,8 +575,8 @@ SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers, std::uint32_t unu
 // normals() in one pass (a window of face normals) gives the bits of the definition at 1 to 3
 // threads, twice in a row (the window reused): on the tiled form's drawing order of the cow and
 // on a grid numbered row by row (its last vertex's face the last face), both with 16-bit
-// corners, and on a grid whose middle row of faces has corners 70,000 vertices apart (unused
-// vertices between), with the surface's. The cow's canonical order, the grid with its first and
+// corners, and on grids whose middle row of faces has corners 20,000 vertices apart (unused
+// vertices between; 16-bit corners up to 62,370), 22,000 and 70,000 (the surface's corners). The cow's canonical order, the grid with its first and
 // last faces' numbers swapped and one numbered at random keep the two passes (a block of vertices
 // there reads faces too far apart), as does a smaller grid.
 TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
@@ -588,13 +588,17 @@ TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
     const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(700, FaceNumbers::Rows),
                        rows = gridSurface(725, FaceNumbers::Rows), swapped = gridSurface(725, FaceNumbers::TwoSwapped),
                        shuffled = gridSurface(725, FaceNumbers::Random),
-                       apart = gridSurface(725, FaceNumbers::Rows, 70000);
+                       apart = gridSurface(725, FaceNumbers::Rows, 70000),
+                       nearlyApart = gridSurface(725, FaceNumbers::Rows, 20000),
+                       justApart = gridSurface(725, FaceNumbers::Rows, 22000);
     ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 19);
     ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 19);
     ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 19);
     const std::pair<const SurfaceTable*, const char*> surfaces[] = {
         {&tiled.surface, "cow, drawing order"}, {&canonical, "cow, canonical order"}, {&rows, "grid"},
         {&apart, "grid with unused vertices in the middle"},
+        {&nearlyApart, "grid with 20,000 unused vertices in the middle"},
+        {&justApart, "grid with 22,000 unused vertices in the middle"},
         {&small, "grid of fewer than 2^19 faces"}, {&swapped, "grid, two faces swapped"},
         {&shuffled, "grid, numbered at random"}};
     for (const auto& [surface, name] : surfaces) {
@@ -608,9 +612,14 @@ TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
                 surface == &tiled.surface
                     ? std::make_unique<CpuEvaluator<float>>(tiled, 3, threads)
                     : std::make_unique<CpuEvaluator<float>>(perLevel, FactorizedTable{}, *surface, TableForm::PerLevel, 3, threads);
-            EXPECT_EQ(evaluator->normalsInOnePass(), surface == &tiled.surface || surface == &rows || surface == &apart)
+            const bool onePass = surface == &tiled.surface || surface == &rows || surface == &apart ||
+                                 surface == &nearlyApart || surface == &justApart;
+            EXPECT_EQ(evaluator->normalsInOnePass(), onePass) << name;
+            // Narrow corners are offsets in floats (3 per vertex) within 16 bits: runs of faces
+            // spanning at most 21,845 vertices (the gap of 20,000 plus a row and a run: 20,790).
+            EXPECT_EQ(evaluator->normalsReadNarrowCorners(),
+                      surface == &tiled.surface || surface == &rows || surface == &nearlyApart)
                 << name;
-            EXPECT_EQ(evaluator->normalsReadNarrowCorners(), surface == &tiled.surface || surface == &rows) << name;
             for (const int call : {1, 2}) {
                 std::vector<float> normals(expected.size(), -7.0f);
                 evaluator->normals(positions, normals);

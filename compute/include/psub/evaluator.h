@@ -179,10 +179,11 @@ private:
     // face that it or any later block reads, and one past the last face it reads.
     std::vector<std::uint32_t> windowFrom_, windowTo_;
     std::vector<std::uint32_t> lastVertexFaces_;  // the faces around the last vertex, ascending
-    // The one pass's narrow copies of the surface (planNormalWindow): per entry of vertexFaces its
-    // face's slot in the window; per block whether its vertices have 4 faces each (their offsets
-    // then implicit); per face corner the vertex less cornerBase_ of its run of kCornerRun faces
-    // (empty where a run's corners span 2^16 vertices or more: the surface's faceVerts instead).
+    // The one pass's narrow copies of the surface (planNormalWindow): per entry of vertexFaces
+    // twice its face's slot in the window (an 8-byte scale reaches its normal); per block whether
+    // its vertices have 4 faces each (their offsets then implicit); per face corner 3 x (the
+    // vertex less cornerBase_ of its run of kCornerRun faces): its offset in floats (empty where a
+    // run's corners span more than 21,845 vertices: the surface's faceVerts instead).
     std::vector<std::uint16_t> windowSlots_, windowCorners_;
     std::vector<std::uint32_t> cornerBase_;
     std::vector<std::uint8_t> fourFaceBlocks_;
