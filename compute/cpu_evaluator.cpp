@@ -711,15 +711,19 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             auto store = [&](std::uint32_t f, __m128 v0, __m128 v1, __m128 v2, __m128 v3) {
                 _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)), quadNormal(v0, v1, v2, v3));
             };
-            auto quad = [&](std::uint32_t f) {
+            // Faces [f, to) of one run: one base, and the window's slots in sequence (a run does
+            // not wrap: kWindowFaces is a multiple of kCornerRun).
+            auto run = [&](std::uint32_t f, std::uint32_t to) {
+                float* w = window + 4 * std::size_t(f & (kWindowFaces - 1));
                 if constexpr (decltype(narrow)::value) {
-                    const std::uint16_t* c = corners + 4 * std::size_t(f);
                     const float* q = p + 3 * std::size_t(cornerBase[f / kCornerRun]);
-                    store(f, _mm_loadu_ps(q + c[0]), _mm_loadu_ps(q + c[1]), _mm_loadu_ps(q + c[2]), _mm_loadu_ps(q + c[3]));
+                    for (const std::uint16_t* c = corners + 4 * std::size_t(f); f < to; ++f, c += 4, w += 4)
+                        _mm_store_ps(w, quadNormal(_mm_loadu_ps(q + c[0]), _mm_loadu_ps(q + c[1]), _mm_loadu_ps(q + c[2]),
+                                                   _mm_loadu_ps(q + c[3])));
                 } else {
-                    const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
-                    store(f, _mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
-                          _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3])));
+                    for (const std::uint32_t* c = faceVerts + 4 * std::size_t(f); f < to; ++f, c += 4, w += 4)
+                        _mm_store_ps(w, quadNormal(_mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
+                                                   _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3]))));
                 }
             };
             auto safe = [&](std::uint32_t i) {
@@ -730,7 +734,10 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             const std::uint32_t* lEnd = lastVertexFaces_.data() + lastVertexFaces_.size();
             for (std::uint32_t f = begin; f < end;) {
                 const std::uint32_t stop = l == lEnd ? end : std::min(*l, end);
-                for (; f < stop; ++f) quad(f);
+                for (std::uint32_t to; f < stop; f = to) {
+                    to = std::min(stop, (f / kCornerRun + 1) * kCornerRun);
+                    run(f, to);
+                }
                 if (f < end) {
                     const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
                     store(f, safe(c[0]), safe(c[1]), safe(c[2]), safe(c[3]));
@@ -756,12 +763,16 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             }
             std::uint32_t v = std::uint32_t(b) * kWindowBlock;
             if (fourFaceBlocks_[b]) {
-                // Four faces a vertex: the block's entries run on from its first vertex's.
-                const std::uint32_t j = vertexOffsets[v];
-                for (std::uint32_t i = 0; i < kWindowBlock; i += 4)
-                    storeFourNormals(out + 3 * std::size_t(v + i), faceSum(j + 4 * i, j + 4 * i + 4),
-                                     faceSum(j + 4 * i + 4, j + 4 * i + 8), faceSum(j + 4 * i + 8, j + 4 * i + 12),
-                                     faceSum(j + 4 * i + 12, j + 4 * i + 16));
+                // Four faces a vertex: the block's entries run on from its first vertex's (read
+                // through a pointer: two instructions a face, not three). faceNormalSum's sums.
+                const std::uint16_t* s = slots + vertexOffsets[v];
+                auto fourSum = [&](const std::uint16_t* e) {
+                    auto at = [&](int k) { return _mm_load_ps(window + 2 * std::size_t(e[k])); };
+                    return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_setzero_ps(), at(0)), at(1)), at(2)), at(3));
+                };
+                float* o = out + 3 * std::size_t(v);
+                for (std::uint32_t i = 0; i < kWindowBlock; i += 4, s += 16, o += 12)
+                    storeFourNormals(o, fourSum(s), fourSum(s + 4), fourSum(s + 8), fourSum(s + 12));
                 continue;
             }
             const std::uint32_t vEnd = std::min(last + 1, std::uint32_t(b + 1) * kWindowBlock);
