@@ -27,11 +27,11 @@ constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate le
 // normals() in one pass (windowedNormalsSimd): vertices a block of 32 at a time, face normals in
 // a window of 8192 (128 KB, in the second-level cache; the cow at 7 steps in drawing order needs
 // 6400; blocks of 16 and 64 were within 5%, windows of 16384 no faster), on surfaces of at least
-// 2^19 faces: with fewer, whose face normals
-// (8 MB at 2^19) stay in cache between the two passes, the two passes were as fast or faster
-// (the cow at 17k and 139k faces by 5-15%, at 279k within 10% either way; at 557k the one pass
-// 20% faster, at 1.1M 22%).
-constexpr std::uint32_t kWindowBlock = 32, kWindowFaces = 8192, kWindowMinFaces = 1u << 19;
+// 2^17 faces: with fewer, whose face normals stay in cache between the two passes, the two
+// passes were faster (the cow at 70k faces 0.127-0.128 against 0.134 ms, at 35k 0.060-0.061
+// against 0.065; at 139k the one pass 0.238 against 0.265-0.267, at 279k 0.483 against
+// 0.568-0.571; bench/README.md, "Session 30").
+constexpr std::uint32_t kWindowBlock = 32, kWindowFaces = 8192, kWindowMinFaces = 1u << 17;
 // Its narrow corners: runs of 64 faces, each with its least corner as the base.
 constexpr std::uint32_t kCornerRun = 64;
 

@@ -580,26 +580,26 @@ SurfaceTable gridSurface(std::uint32_t n, FaceNumbers numbers, std::uint32_t unu
 // last faces' numbers swapped and one numbered at random keep the two passes (a block of vertices
 // there reads faces too far apart), as does a smaller grid.
 TEST(Evaluator, NormalsInOnePassAreBitIdenticalToTheDefinition) {
-    // At least 2^19 faces each (below, the two passes are as fast: cpu_evaluator.cpp).
+    // At least 2^17 faces each (below, the two passes are faster: cpu_evaluator.cpp).
     const Hierarchy h = test::refine(load(test::dataPath("cow.obj")), 6);
     const PerLevelTable perLevel = buildPerLevelTable(h);
     const TiledTable tiled = buildTiledTable(h, perLevel);
     ASSERT_EQ(tiled.tileCount(), 0u);
-    const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(700, FaceNumbers::Rows),
+    const SurfaceTable canonical = buildSurfaceTable(h.finest().faces), small = gridSurface(362, FaceNumbers::Rows),
                        rows = gridSurface(725, FaceNumbers::Rows), swapped = gridSurface(725, FaceNumbers::TwoSwapped),
                        shuffled = gridSurface(725, FaceNumbers::Random),
                        apart = gridSurface(725, FaceNumbers::Rows, 70000),
                        nearlyApart = gridSurface(725, FaceNumbers::Rows, 20000),
                        justApart = gridSurface(725, FaceNumbers::Rows, 22000);
-    ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 19);
-    ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 19);
-    ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 19);
+    ASSERT_GE(canonical.faceOffsets.size() - 1, std::size_t(1) << 17);
+    ASSERT_LT(small.faceOffsets.size() - 1, std::size_t(1) << 17);
+    ASSERT_GE(rows.faceOffsets.size() - 1, std::size_t(1) << 17);
     const std::pair<const SurfaceTable*, const char*> surfaces[] = {
         {&tiled.surface, "cow, drawing order"}, {&canonical, "cow, canonical order"}, {&rows, "grid"},
         {&apart, "grid with unused vertices in the middle"},
         {&nearlyApart, "grid with 20,000 unused vertices in the middle"},
         {&justApart, "grid with 22,000 unused vertices in the middle"},
-        {&small, "grid of fewer than 2^19 faces"}, {&swapped, "grid, two faces swapped"},
+        {&small, "grid of fewer than 2^17 faces"}, {&swapped, "grid, two faces swapped"},
         {&shuffled, "grid, numbered at random"}};
     for (const auto& [surface, name] : surfaces) {
         std::mt19937 random(17);
