@@ -34,6 +34,12 @@ constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate le
 constexpr std::uint32_t kWindowBlock = 32, kWindowFaces = 8192, kWindowMinFaces = 1u << 17;
 // Its narrow corners: runs of 64 faces, each with its least corner as the base.
 constexpr std::uint32_t kCornerRun = 64;
+// A stream face's first corner that marks a tile's ring face (its second: the face), whose
+// normal the tile pass has written (planRestWindow).
+constexpr std::uint32_t kRingFace = UINT32_MAX;
+// A tile border point's weight in a block's work beyond a fallback point's (Spot at 12 steps: 2
+// a little faster than 0, 4 and 6 slower).
+constexpr std::uint64_t kBorderWork = 2;
 
 // This thread's share [begin, end) of `rows` rows.
 std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
@@ -190,6 +196,7 @@ void CpuEvaluator<T>::allocate() {
     for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
         allQuads_ = surface.faceOffsets[f] == 4 * f;
     planNormalWindow();
+    planRestWindow();
 }
 
 // Plans windowedNormalsSimd on a surface of at least kWindowMinFaces quads: blocks of
@@ -227,60 +234,138 @@ void CpuEvaluator<T>::planNormalWindow() {
         reached = std::max(reached, to[b]);
         if (to[b] > 0 && reached - from[b] > kWindowFaces) return;
     }
-    windowFrom_ = std::move(from);
-    windowTo_ = std::move(to);
+    NormalWindow& w = window_;
+    w.from = std::move(from);
+    w.to = std::move(to);
     const std::uint32_t last = vertexCount - 1;
-    lastVertexFaces_.assign(surface.vertexFaces.begin() + surface.vertexOffsets[last],
-                            surface.vertexFaces.begin() + surface.vertexOffsets[last + 1]);
-    std::sort(lastVertexFaces_.begin(), lastVertexFaces_.end());
-    planNarrowSurface();
-}
-
-// The one pass reads 16-bit copies of the surface's indices where they fit, and no offsets
-// where a block's vertices have four faces each: of the 80 MB the pass moves on the cow at 7
-// steps, 18 MB fewer, and it is bound by those bytes where the memory system is busy (normals
-// 3.1 -> 2.5 ms there then, within 2% in a quiet sitting; the same bits; bench/README.md,
-// "Session 29"). The copies are scaled for x86 addressing (a slot by 2, a corner by 3), so a
-// corner costs two instructions, not four: where the memory system is quiet the pass is bound
-// by its instructions (2.13 -> 1.82 ms, "Session 30").
-template <class T>
-void CpuEvaluator<T>::planNarrowSurface() {
-    const SurfaceTable& surface = surface_;
-    const std::uint32_t vertexCount = surface.vertexCount, blocks = std::uint32_t(windowTo_.size());
-    const std::size_t entries = surface.vertexFaces.size(), faces = surface.faceOffsets.size() - 1;
-    const std::size_t runs = (faces - 1) / kCornerRun + 1;
-    windowSlots_.resize(entries);
-    fourFaceBlocks_.resize(blocks);
-    cornerBase_.resize(runs);
-    windowCorners_.resize(surface.faceVerts.size());
-    bool wide = false;  // a run of faces whose corners span 2^16 vertices or more
+    w.lastVertexFaces.assign(surface.vertexFaces.begin() + surface.vertexOffsets[last],
+                             surface.vertexFaces.begin() + surface.vertexOffsets[last + 1]);
+    std::sort(w.lastVertexFaces.begin(), w.lastVertexFaces.end());
+    // The narrow copies: of the 80 MB the pass moves on the cow at 7 steps, 18 MB fewer, and it
+    // is bound by those bytes where the memory system is busy (normals 3.1 -> 2.5 ms there then,
+    // within 2% in a quiet sitting; the same bits; bench/README.md, "Session 29"). They are
+    // scaled for x86 addressing (a slot by 2, a corner by 3), so a corner costs two instructions,
+    // not four: where the memory system is quiet the pass is bound by its instructions (2.13 ->
+    // 1.82 ms, "Session 30").
+    const std::size_t entries = surface.vertexFaces.size();
+    w.slots.resize(entries);
+    w.fourFaceBlocks.resize(blocks);
 #pragma omp parallel num_threads(threads_)
     {
 #pragma omp for schedule(static)
         for (std::size_t j = 0; j < entries; ++j)
-            windowSlots_[j] = std::uint16_t(2 * (surface.vertexFaces[j] & (kWindowFaces - 1)));
-#pragma omp for schedule(static) nowait
+            w.slots[j] = std::uint16_t(2 * (surface.vertexFaces[j] & (kWindowFaces - 1)));
+#pragma omp for schedule(static)
         for (std::uint32_t b = 0; b < blocks; ++b) {
             const std::uint32_t begin = b * kWindowBlock, end = std::min(vertexCount, begin + kWindowBlock);
             bool four = end - begin == kWindowBlock;
             for (std::uint32_t v = begin; v < end && four; ++v)
                 four = surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] == 4;
-            fourFaceBlocks_[b] = four;
-        }
-#pragma omp for schedule(static) reduction(|| : wide)
-        for (std::size_t r = 0; r < runs; ++r) {
-            const std::uint32_t* c = surface.faceVerts.data() + 4 * kCornerRun * r;
-            const std::uint32_t* cEnd = surface.faceVerts.data() + 4 * std::min(faces, kCornerRun * (r + 1));
-            const auto [lo, hi] = std::minmax_element(c, cEnd);
-            cornerBase_[r] = *lo;
-            wide = wide || *hi - *lo > UINT16_MAX / 3;
-            for (std::uint16_t* narrow = windowCorners_.data() + (c - surface.faceVerts.data()); c < cEnd; ++c, ++narrow)
-                *narrow = std::uint16_t(3 * (*c - *lo));
+            w.fourFaceBlocks[b] = four;
         }
     }
+    planNarrowCorners(w, surface.faceVerts.data(), surface.faceOffsets.size() - 1);
+}
+
+// The tiled form's rest (tileNormals_.restVertices: its tiles' border points and the fallback's,
+// a quarter of Spot's at 12 steps) through the one pass as well, instead of the two passes over
+// lists (a face normal and its 16 bytes written and read back per face, the lists' indirection):
+// the listed vertices block by block, and their faces as a stream in order of first use, a face
+// read again more than a window on taken again (so every block's faces lie in the window). The
+// stream's corners are copied, 16 bits where they fit. The ring faces, which the tile pass would
+// otherwise write, are computed again with the same operations, so the bits stay the same.
+template <class T>
+void CpuEvaluator<T>::planRestWindow() {
+    const SurfaceTable& surface = surface_;
+    const std::vector<std::uint32_t>& list = tileNormals_.restVertices;
+    if (!std::is_same_v<T, float> || !kSimd || !allQuads_ || width_ != 3 || !tileNormals_.worthIt || list.empty() ||
+        surface.vertexOffsets.size() != std::size_t(surface.vertexCount) + 1)
+        return;
+    NormalWindow w;
+    const std::uint32_t count = std::uint32_t(list.size()), blocks = (count - 1) / kWindowBlock + 1;
+    w.entries.resize(std::size_t(count) + 1);
+    w.from.resize(blocks);
+    w.to.resize(blocks);
+    w.fourFaceBlocks.resize(blocks);
+    std::vector<std::uint32_t> streamOf(surface.faceOffsets.size() - 1, UINT32_MAX), corners;
+    std::vector<char> ring(surface.faceOffsets.size() - 1, 0);
+    for (std::uint32_t f : tileNormals_.ringFaces) ring[f] = 1;
+    std::uint32_t streamed = 0;
+    for (std::uint32_t b = 0; b < blocks; ++b) {
+        const std::uint32_t q0 = b * kWindowBlock, q1 = std::min(count, q0 + kWindowBlock);
+        std::uint32_t reads = 0;
+        bool four = q1 - q0 == kWindowBlock;
+        for (std::uint32_t q = q0; q < q1; ++q) {
+            const std::uint32_t faces = surface.vertexOffsets[list[q] + 1] - surface.vertexOffsets[list[q]];
+            reads += faces;
+            four = four && faces == 4;
+        }
+        if (reads > kWindowFaces / 2) return;  // a block of many-sided vertices: the two passes
+        // Faces streamed at or after keep are still in the window when the block has streamed
+        // its own (at most `reads` more).
+        const std::uint32_t keep = streamed + reads > kWindowFaces ? streamed + reads - kWindowFaces : 0;
+        std::uint32_t least = UINT32_MAX;
+        for (std::uint32_t q = q0; q < q1; ++q) {
+            w.entries[q] = std::uint32_t(w.slots.size());
+            for (std::uint32_t j = surface.vertexOffsets[list[q]]; j < surface.vertexOffsets[list[q] + 1]; ++j) {
+                const std::uint32_t f = surface.vertexFaces[j];
+                if (streamOf[f] == UINT32_MAX || streamOf[f] < keep) {
+                    streamOf[f] = streamed++;
+                    if (ring[f])
+                        corners.insert(corners.end(), {kRingFace, f, 0, 0});
+                    else
+                        corners.insert(corners.end(), surface.faceVerts.begin() + 4 * std::size_t(f),
+                                       surface.faceVerts.begin() + 4 * std::size_t(f) + 4);
+                }
+                w.slots.push_back(std::uint16_t(2 * (streamOf[f] & (kWindowFaces - 1))));
+                least = std::min(least, streamOf[f]);
+            }
+        }
+        w.from[b] = least;
+        w.to[b] = streamed;
+        w.fourFaceBlocks[b] = four;
+        // The block's work: its faces streamed, its vertices, and more for tile border points
+        // (their faces' corners lie in the tiles, written past the caches).
+        std::uint64_t work = streamed - (b == 0 ? 0 : w.to[b - 1]) + (q1 - q0);
+        for (std::uint32_t q = q0; q < q1; ++q) work += list[q] < tiled_->fallbackBegin ? kBorderWork : 0;
+        w.work.push_back((b == 0 ? 0 : w.work.back()) + work);
+    }
+    w.entries[count] = std::uint32_t(w.slots.size());
+    for (std::uint32_t b = blocks - 1; b-- > 0;) w.from[b] = std::min(w.from[b], w.from[b + 1]);
+    const std::uint32_t last = surface.vertexCount - 1;
+    for (std::uint32_t i = 0; i < streamed; ++i)
+        if (corners[4 * std::size_t(i)] != kRingFace &&
+            std::find(corners.begin() + 4 * std::size_t(i), corners.begin() + 4 * std::size_t(i) + 4, last) !=
+                corners.begin() + 4 * std::size_t(i) + 4)
+            w.lastVertexFaces.push_back(i);
+    w.wideCorners = std::move(corners);
+    w.rings = true;
+    w.vertices = list;
+    restWindow_ = std::move(w);
+}
+
+// Runs of kCornerRun faces, each corner 3 x its offset from the run's least corner, where every
+// run spans at most 21,845 vertices (the cow at 7 steps in drawing order: at most 6,454).
+template <class T>
+void CpuEvaluator<T>::planNarrowCorners(NormalWindow& w, const std::uint32_t* corners, std::size_t faces) const {
+    if (faces == 0) return;
+    const std::size_t runs = (faces - 1) / kCornerRun + 1;
+    w.cornerBase.resize(runs);
+    w.corners.resize(4 * faces);
+    bool wide = false;
+#pragma omp parallel for num_threads(threads_) schedule(static) reduction(|| : wide)
+    for (std::size_t r = 0; r < runs; ++r) {
+        const std::uint32_t* c = corners + 4 * kCornerRun * r;
+        const std::uint32_t* cEnd = corners + 4 * std::min(faces, kCornerRun * (r + 1));
+        const auto [lo, hi] = std::minmax_element(c, cEnd);
+        w.cornerBase[r] = *lo;
+        wide = wide || *hi - *lo > UINT16_MAX / 3;
+        for (std::uint16_t* narrow = w.corners.data() + (c - corners); c < cEnd; ++c, ++narrow)
+            *narrow = std::uint16_t(3 * (*c - *lo));
+    }
     if (wide) {
-        std::vector<std::uint16_t>().swap(windowCorners_);
-        std::vector<std::uint32_t>().swap(cornerBase_);
+        std::vector<std::uint16_t>().swap(w.corners);
+        std::vector<std::uint32_t>().swap(w.cornerBase);
     }
 }
 
@@ -357,7 +442,10 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
                                         tileNormals_.ringFaces.data() + (normals ? tileNormals_.ringBegin[k] : 0)},
                          scratch);
         // After the loop's implicit barrier every position is written.
-        if (normals) normalPasses(refined.data(), normals, &tileNormals_.restFaces, &tileNormals_.restVertices);
+        if (normals && restWindow_.planned())
+            windowedNormalsSimd(refined.data(), normals, restWindow_);
+        else if (normals)
+            normalPasses(refined.data(), normals, &tileNormals_.restFaces, &tileNormals_.restVertices);
     }
 }
 
@@ -367,10 +455,10 @@ void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) 
     const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
 #pragma omp parallel num_threads(team) if (team > 1)
     {
-        if (windowTo_.empty())
-            normalPasses(refined.data(), normals.data());
+        if (window_.planned())
+            windowedNormalsSimd(refined.data(), normals.data(), window_);
         else
-            windowedNormalsSimd(refined.data(), normals.data());
+            normalPasses(refined.data(), normals.data());
     }
 }
 
@@ -690,23 +778,35 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
 }
 
 template <class T>
-void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
+void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out, const NormalWindow& w) const {
     if constexpr (std::is_same_v<T, float>) {
-        const std::pair<std::uint64_t, std::uint64_t> blockShare = share(windowTo_.size());
-        if (blockShare.first == blockShare.second) return;
+        // This thread's blocks: an even share of them, or of their work where the plan weighs
+        // it (w.work: a tiled form's rest costs more at its tiles' borders than in its fallback).
+        const std::uint64_t blocks = w.to.size();
+        const auto blockAt = [&](std::uint64_t t) {
+            if (w.work.empty()) return blocks * t / std::uint64_t(omp_get_num_threads());
+            const std::uint64_t goal = w.work.back() * t / std::uint64_t(omp_get_num_threads());
+            return std::uint64_t(std::lower_bound(w.work.begin(), w.work.end(), goal) - w.work.begin());
+        };
+        const std::uint64_t thread = std::uint64_t(omp_get_thread_num());
+        const std::pair<std::uint64_t, std::uint64_t> blockShare{thread == 0 ? 0 : blockAt(thread),
+                                                                 thread + 1 == std::uint64_t(omp_get_num_threads()) ? blocks : blockAt(thread + 1)};
+        if (blockShare.first >= blockShare.second) return;
         float* window = threadScratch<float>(4 * std::size_t(kWindowFaces));
-        const std::uint32_t* faceVerts = surface_.faceVerts.data();
-        const bool narrowCorners = !windowCorners_.empty();
-        const std::uint16_t* corners = windowCorners_.data();
-        const std::uint32_t* cornerBase = cornerBase_.data();
-        const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
-        const std::uint16_t* slots = windowSlots_.data();
+        const std::uint32_t* faceVerts = w.wideCorners.empty() ? surface_.faceVerts.data() : w.wideCorners.data();
+        const bool narrowCorners = !w.corners.empty();
+        const std::uint16_t* corners = w.corners.data();
+        const std::uint32_t* cornerBase = w.cornerBase.data();
+        const bool listed = !w.vertices.empty();
+        const std::uint32_t* entries = listed ? w.entries.data() : surface_.vertexOffsets.data();
+        const std::uint16_t* slots = w.slots.data();
         const std::uint32_t last = surface_.vertexCount - 1;
-        // Face normals [begin, end) into the window, slot f mod kWindowFaces, the corners narrow
+        const std::uint32_t count = listed ? std::uint32_t(w.vertices.size()) : surface_.vertexCount;
+        // Stream faces [begin, end) into the window, slot f mod kWindowFaces, the corners narrow
         // (`narrow`, a std::bool_constant: a run's base address and each corner's offset in
-        // floats, two instructions a corner) or the surface's. A 16-byte load at a vertex reads
-        // one value past its position: past the buffer only for the last vertex, whose faces
-        // take the surface's corners and load it value by value.
+        // floats, two instructions a corner) or 32-bit. A 16-byte load at a vertex reads one
+        // value past its position: past the buffer only for the last vertex, whose faces load it
+        // value by value.
         auto faceNormals = [&](std::uint32_t begin, std::uint32_t end, auto narrow) {
             auto store = [&](std::uint32_t f, __m128 v0, __m128 v1, __m128 v2, __m128 v3) {
                 _mm_store_ps(window + 4 * std::size_t(f & (kWindowFaces - 1)), quadNormal(v0, v1, v2, v3));
@@ -714,24 +814,31 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
             // Faces [f, to) of one run: one base, and the window's slots in sequence (a run does
             // not wrap: kWindowFaces is a multiple of kCornerRun).
             auto run = [&](std::uint32_t f, std::uint32_t to) {
-                float* w = window + 4 * std::size_t(f & (kWindowFaces - 1));
+                float* s = window + 4 * std::size_t(f & (kWindowFaces - 1));
                 if constexpr (decltype(narrow)::value) {
                     const float* q = p + 3 * std::size_t(cornerBase[f / kCornerRun]);
-                    for (const std::uint16_t* c = corners + 4 * std::size_t(f); f < to; ++f, c += 4, w += 4)
-                        _mm_store_ps(w, quadNormal(_mm_loadu_ps(q + c[0]), _mm_loadu_ps(q + c[1]), _mm_loadu_ps(q + c[2]),
+                    for (const std::uint16_t* c = corners + 4 * std::size_t(f); f < to; ++f, c += 4, s += 4)
+                        _mm_store_ps(s, quadNormal(_mm_loadu_ps(q + c[0]), _mm_loadu_ps(q + c[1]), _mm_loadu_ps(q + c[2]),
                                                    _mm_loadu_ps(q + c[3])));
                 } else {
-                    for (const std::uint32_t* c = faceVerts + 4 * std::size_t(f); f < to; ++f, c += 4, w += 4)
-                        _mm_store_ps(w, quadNormal(_mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
+                    for (const std::uint32_t* c = faceVerts + 4 * std::size_t(f); f < to; ++f, c += 4, s += 4) {
+                        if (w.rings && c[0] == kRingFace) {  // a ring face: the tile pass's normal
+                            _mm_store_ps(s, _mm_load_ps(faceNormals_.data() + 4 * std::size_t(c[1])));
+                            continue;
+                        }
+                        _mm_store_ps(s, quadNormal(_mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),
                                                    _mm_loadu_ps(p + 3 * std::size_t(c[2])), _mm_loadu_ps(p + 3 * std::size_t(c[3]))));
+                    }
                 }
             };
-            auto safe = [&](std::uint32_t i) {
+            auto safe = [&](std::uint32_t f, int k) {
+                const std::uint32_t i = decltype(narrow)::value ? cornerBase[f / kCornerRun] + corners[4 * std::size_t(f) + k] / 3u
+                                                                : faceVerts[4 * std::size_t(f) + k];
                 const float* q = p + 3 * std::size_t(i);
                 return i < last ? _mm_loadu_ps(q) : _mm_setr_ps(q[0], q[1], q[2], 0.0f);
             };
-            const std::uint32_t* l = std::lower_bound(lastVertexFaces_.data(), lastVertexFaces_.data() + lastVertexFaces_.size(), begin);
-            const std::uint32_t* lEnd = lastVertexFaces_.data() + lastVertexFaces_.size();
+            const std::uint32_t* l = std::lower_bound(w.lastVertexFaces.data(), w.lastVertexFaces.data() + w.lastVertexFaces.size(), begin);
+            const std::uint32_t* lEnd = w.lastVertexFaces.data() + w.lastVertexFaces.size();
             for (std::uint32_t f = begin; f < end;) {
                 const std::uint32_t stop = l == lEnd ? end : std::min(*l, end);
                 for (std::uint32_t to; f < stop; f = to) {
@@ -739,51 +846,62 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
                     run(f, to);
                 }
                 if (f < end) {
-                    const std::uint32_t* c = faceVerts + 4 * std::size_t(f);
-                    store(f, safe(c[0]), safe(c[1]), safe(c[2]), safe(c[3]));
+                    store(f, safe(f, 0), safe(f, 1), safe(f, 2), safe(f, 3));
                     ++f, ++l;
                 }
             }
         };
-        // The sum of the face normals of vertexFaces' entries [begin, end), in that order (as
+        // The sum of the face normals of entries [begin, end), in that order (as
         // vertexNormalsSimd's).
         auto faceSum = [&](std::uint32_t begin, std::uint32_t end) {
             auto faceNormal = [&](std::uint32_t j) { return _mm_load_ps(window + 2 * std::size_t(slots[j])); };
             return faceNormalSum(begin, end, faceNormal);
         };
-        auto vertexSum = [&](std::uint32_t v) { return faceSum(vertexOffsets[v], vertexOffsets[v + 1]); };
-        std::uint32_t done = windowFrom_[blockShare.first];  // faces [.., done) are in the window
+        auto vertexSum = [&](std::uint32_t q) { return faceSum(entries[q], entries[q + 1]); };
+        // The normals of positions q .. q + 3 of the block's vertices: listed (`isListed`, a
+        // std::bool_constant) four consecutive vertices as 48 bytes, others one by one.
+        auto storeFour = [&](std::uint32_t q, __m128 n0, __m128 n1, __m128 n2, __m128 n3, auto isListed) {
+            if constexpr (decltype(isListed)::value) {
+                const std::uint32_t* v = w.vertices.data() + q;
+                if (v[3] - v[0] != 3) return storeFourListedNormals(out, v, n0, n1, n2, n3);
+                q = v[0];
+            }
+            storeFourNormals(out + 3 * std::size_t(q), n0, n1, n2, n3);
+        };
+        auto vertices = [&](std::uint64_t b, auto isListed) {
+            std::uint32_t q = std::uint32_t(b) * kWindowBlock;
+            if (w.fourFaceBlocks[b]) {
+                // Four faces a vertex: the block's entries run on from its first vertex's (read
+                // through a pointer: two instructions a face, not three). faceNormalSum's sums.
+                const std::uint16_t* s = slots + entries[q];
+                auto fourSum = [&](const std::uint16_t* e) {
+                    auto at = [&](int k) { return _mm_load_ps(window + 2 * std::size_t(e[k])); };
+                    return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_setzero_ps(), at(0)), at(1)), at(2)), at(3));
+                };
+                for (std::uint32_t i = 0; i < kWindowBlock; i += 4, s += 16)
+                    storeFour(q + i, fourSum(s), fourSum(s + 4), fourSum(s + 8), fourSum(s + 12), isListed);
+                return;
+            }
+            const std::uint32_t qEnd = std::min(count, std::uint32_t(b + 1) * kWindowBlock);
+            for (; q + 4 <= qEnd; q += 4) storeFour(q, vertexSum(q), vertexSum(q + 1), vertexSum(q + 2), vertexSum(q + 3), isListed);
+            for (; q < qEnd; ++q) storeNormal(out + 3 * std::size_t(listed ? w.vertices[q] : q), vertexSum(q));
+        };
+        std::uint32_t done = w.from[blockShare.first];  // faces [.., done) are in the window
         for (std::uint64_t b = blockShare.first; b < blockShare.second; ++b) {
-            const std::uint32_t to = windowTo_[b];
+            const std::uint32_t to = w.to[b];
             if (to > done) {
                 const std::uint32_t begin = std::max(done, to - std::min(to, kWindowFaces));
                 if (narrowCorners) faceNormals(begin, to, std::true_type{});
                 else faceNormals(begin, to, std::false_type{});
                 done = to;
             }
-            std::uint32_t v = std::uint32_t(b) * kWindowBlock;
-            if (fourFaceBlocks_[b]) {
-                // Four faces a vertex: the block's entries run on from its first vertex's (read
-                // through a pointer: two instructions a face, not three). faceNormalSum's sums.
-                const std::uint16_t* s = slots + vertexOffsets[v];
-                auto fourSum = [&](const std::uint16_t* e) {
-                    auto at = [&](int k) { return _mm_load_ps(window + 2 * std::size_t(e[k])); };
-                    return _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_setzero_ps(), at(0)), at(1)), at(2)), at(3));
-                };
-                float* o = out + 3 * std::size_t(v);
-                for (std::uint32_t i = 0; i < kWindowBlock; i += 4, s += 16, o += 12)
-                    storeFourNormals(o, fourSum(s), fourSum(s + 4), fourSum(s + 8), fourSum(s + 12));
-                continue;
-            }
-            const std::uint32_t vEnd = std::min(last + 1, std::uint32_t(b + 1) * kWindowBlock);
-            for (; v + 4 <= vEnd; v += 4)
-                storeFourNormals(out + 3 * std::size_t(v), vertexSum(v), vertexSum(v + 1), vertexSum(v + 2),
-                                 vertexSum(v + 3));
-            for (; v < vEnd; ++v) storeNormal(out + 3 * std::size_t(v), vertexSum(v));
+            if (listed) vertices(b, std::true_type{});
+            else vertices(b, std::false_type{});
         }
     } else {
         (void)p;
         (void)out;
+        (void)w;
     }
 }
 #else
@@ -791,7 +909,7 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out) const {
 template <class T>
 void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_t>* only) { faceNormalsScalar(p, only); }
 template <class T>
-void CpuEvaluator<T>::windowedNormalsSimd(const T*, T*) const {}
+void CpuEvaluator<T>::windowedNormalsSimd(const T*, T*, const NormalWindow&) const {}
 template <class T>
 void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>* only) const {
     vertexNormalsScalar(out, only);

@@ -497,15 +497,18 @@ TEST(Tiled, NormalsAreTheDefinitionOnTheTiledPositions) {
 
 // Normals with the positions (evaluate with a normals span): the same positions as without,
 // and normals within float rounding of normals() on them (the tiles' inner points, from the
-// lattice) or equal (the rest, over their faces), on every model (most of them mostly
-// fallback: normals() after the positions), and on a torus (all tiles: the tile pass's
-// normals) at widths 3 and 4, 1 and 3 threads, float and double.
+// lattice) or equal (the rest, over their faces: in one pass for floats of width 3, the tiles'
+// ring faces' normals taken from the tile pass, else in two over lists), on every model (most of
+// them mostly fallback: normals() after the positions), and on a torus (all tiles: the tile
+// pass's normals) at widths 3 and 4, 1 and 3 threads, float and double.
 template <class T>
 void expectFusedNormals(const TiledTable& table, const std::vector<double>& positions, std::uint32_t width,
                         int threads, double tolerance, bool inTilePass = false) {
     CpuEvaluator<T> evaluator(table, width, threads);
     if (inTilePass) {
         ASSERT_TRUE(evaluator.normalsInTilePass());
+        // The rest in one pass (float, 3 values a vertex), else the two passes over lists.
+        EXPECT_EQ(evaluator.restNormalsInOnePass(), (std::is_same_v<T, float> && width == 3));
     }
     std::vector<T> control;
     for (std::size_t v = 0; v < positions.size() / 3; ++v)
@@ -553,6 +556,12 @@ TEST(Tiled, NormalsInTheTilePassAreTheDefinition) {
             for (int threads : {1, 3}) expectFusedNormals<float>(table, torus.mesh.positions, width, threads, 1e-5, true);
         expectFusedNormals<double>(table, torus.mesh.positions, 3, 2, 1e-12, true);
     }
+    // A rest of 39k vertices (Spot at 8 steps: tiles' borders and the fallback), whose stream of
+    // faces goes several times round the window of the one pass.
+    const test::Loaded spot = test::load(test::dataPath("spot_control_mesh.obj"));
+    const Hierarchy h = test::refine(spot, 8);
+    const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+    for (int threads : {1, 2, 3}) expectFusedNormals<float>(table, spot.mesh.positions, 3, threads, 1e-5, true);
 }
 
 // refine() builds the finest level's faces only and walks the lattices on level N - 2, kept

@@ -120,9 +120,12 @@ public:
     // The tiled form computes most normals in its tile pass (evaluate with normals, below).
     bool normalsInTilePass() const { return tileNormals_.worthIt; }
     // normals() runs as one pass over a window of face normals (windowedNormalsSimd), not two.
-    bool normalsInOnePass() const { return !windowTo_.empty(); }
+    bool normalsInOnePass() const { return window_.planned(); }
     // ... and reads each face's corners as 16-bit offsets (planNormalWindow), not the surface's.
-    bool normalsReadNarrowCorners() const { return !windowCorners_.empty(); }
+    bool normalsReadNarrowCorners() const { return !window_.corners.empty(); }
+    // The tiled form's normals outside its tiles' inner points (evaluate with normals, where
+    // normalsInTilePass()) run as one pass too (planRestWindow), not two over lists.
+    bool restNormalsInOnePass() const { return restWindow_.planned(); }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
@@ -146,14 +149,35 @@ private:
     void vertexNormalsScalar(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;
     void faceNormalsSimd(const T* positions, const std::vector<std::uint32_t>* only = nullptr);  // float only
     void vertexNormalsSimd(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;  // float only
-    // normals() in one pass (float, SSE, quads, width 3): each thread's vertices block by block,
-    // the face normals they read computed just before into a window of kWindowFaces in cache,
-    // where the surface's order keeps every block's faces near (planNormalWindow, when the
-    // evaluator is made: the tiled form's drawing order); the same operations as the two
-    // passes, so the same bits.
-    void windowedNormalsSimd(const T* positions, T* normals) const;
-    void planNormalWindow();
-    void planNarrowSurface();  // its narrow copies of the surface
+    // The plan of one pass over a window of face normals: vertices (all, or a list) in blocks of
+    // kWindowBlock, and the faces they read as a stream, each block's computed just before it
+    // into a window of kWindowFaces slots in cache (a face read again far on comes twice).
+    struct NormalWindow {
+        std::vector<std::uint32_t> vertices;  // the listed vertices, ascending (empty: every vertex)
+        // Per listed vertex where its entries begin in `slots`, and the end (empty: the
+        // surface's vertexOffsets, the stream its faces in order).
+        std::vector<std::uint32_t> entries;
+        // Per block: the first stream face it or any later block reads; one past the last it reads.
+        std::vector<std::uint32_t> from, to;
+        std::vector<std::uint32_t> lastVertexFaces;  // stream faces around the surface's last vertex, ascending
+        std::vector<std::uint16_t> slots;            // per entry: 2 x its face's window slot
+        // Per stream face corner 3 x (the vertex less cornerBase of its run of kCornerRun faces):
+        // its offset in floats (empty where a run's corners span more than 21,845 vertices).
+        std::vector<std::uint16_t> corners;
+        std::vector<std::uint32_t> cornerBase;
+        std::vector<std::uint32_t> wideCorners;  // else the stream's corners (empty: the surface's faceVerts)
+        std::vector<std::uint8_t> fourFaceBlocks;  // per block: its vertices have 4 faces each
+        bool rings = false;  // wideCorners mark the tiles' ring faces: their normals from the tile pass
+        std::vector<std::uint64_t> work;  // per block, the work up to its end (empty: blocks weigh the same)
+        bool planned() const { return !to.empty(); }
+    };
+    // One pass of normals (float, SSE, quads, width 3) by plan `w`: each thread's blocks in
+    // turn; the same operations as the two passes, so the same bits.
+    void windowedNormalsSimd(const T* positions, T* normals, const NormalWindow& w) const;
+    void planNormalWindow();  // window_: every vertex, the faces in the surface's order
+    void planRestWindow();    // restWindow_: the tiled form's rest vertices
+    // w's narrow corners from the stream's `corners` (4 per face), where they fit.
+    void planNarrowCorners(NormalWindow& w, const std::uint32_t* corners, std::size_t faces) const;
     // Both passes, inside a parallel region (a barrier between them).
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
@@ -175,18 +199,8 @@ private:
     // without), not in the tiled form's drawing order, whose neighbours are near in memory
     // already (3.5-4.0 against 4.1-4.3 ms with; session 26, bench/README.md).
     bool prefetchNormals_ = true;
-    // Per block of kWindowBlock vertices (planNormalWindow; empty: the two passes): the first
-    // face that it or any later block reads, and one past the last face it reads.
-    std::vector<std::uint32_t> windowFrom_, windowTo_;
-    std::vector<std::uint32_t> lastVertexFaces_;  // the faces around the last vertex, ascending
-    // The one pass's narrow copies of the surface (planNormalWindow): per entry of vertexFaces
-    // twice its face's slot in the window (an 8-byte scale reaches its normal); per block whether
-    // its vertices have 4 faces each (their offsets then implicit); per face corner 3 x (the
-    // vertex less cornerBase_ of its run of kCornerRun faces): its offset in floats (empty where a
-    // run's corners span more than 21,845 vertices: the surface's faceVerts instead).
-    std::vector<std::uint16_t> windowSlots_, windowCorners_;
-    std::vector<std::uint32_t> cornerBase_;
-    std::vector<std::uint8_t> fourFaceBlocks_;
+    NormalWindow window_;      // normals() in one pass (planNormalWindow; not planned: two passes)
+    NormalWindow restWindow_;  // the tiled form's rest in one pass (planRestWindow)
     const TiledTable* tiled_ = nullptr;
     TileNormalSets tileNormals_;  // tiled form: normals in the tile pass, where worthIt
 };
