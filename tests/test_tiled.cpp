@@ -564,6 +564,48 @@ TEST(Tiled, NormalsInTheTilePassAreTheDefinition) {
     for (int threads : {1, 2, 3}) expectFusedNormals<float>(table, spot.mesh.positions, 3, threads, 1e-5, true);
 }
 
+// A vertex on a face whose position is not finite gets a normal that is not finite (`psub play`
+// checks the normals whole and only faceless vertices' positions on that account): control
+// points of NaN, infinities and a float overflow, through every normals path of the tiled form
+// (the tile pass and the rest's one pass: a torus, Spot at 8 steps; the one pass over every
+// vertex: the cow at 5 steps, no tile; the two passes: the cow at 3 steps), one and two threads.
+TEST(Tiled, ANonFinitePositionOnAFaceHasANonFiniteNormal) {
+    const test::Loaded torus = loadTorus(32, 24), spot = test::load(test::dataPath("spot_control_mesh.obj")),
+                       cow = test::load(test::dataPath("cow.obj"));
+    enum class Path { TilePass, OnePass, TwoPasses };
+    const std::tuple<const test::Loaded*, int, const char*, Path> cases[] = {{&torus, 4, "torus", Path::TilePass},
+                                                                            {&spot, 8, "Spot", Path::TilePass},
+                                                                            {&cow, 5, "cow, 5 steps", Path::OnePass},
+                                                                            {&cow, 3, "cow, 3 steps", Path::TwoPasses}};
+    for (const auto& [loaded, steps, name, path] : cases) {
+        const Hierarchy h = test::refine(*loaded, steps);
+        const TiledTable table = buildTiledTable(h, buildPerLevelTable(h));
+        for (int threads : {1, 2}) {
+            CpuEvaluator<float> evaluator(table, 3, threads);
+            ASSERT_EQ(evaluator.normalsInTilePass() && evaluator.restNormalsInOnePass(), path == Path::TilePass) << name;
+            ASSERT_EQ(evaluator.normalsInOnePass(), path == Path::OnePass) << name;
+            for (const double bad : {double(NAN), double(INFINITY), -double(INFINITY), 3e38}) {
+                SCOPED_TRACE(std::string(name) + ", threads " + std::to_string(threads) + ", bad " + std::to_string(bad));
+                std::vector<float> control(loaded->mesh.positions.begin(), loaded->mesh.positions.end());
+                const std::size_t at = 3 * (control.size() / 6) + 1;  // the middle vertex's y
+                control[at] = float(bad);
+                if (bad == 3e38) control[at + 3] = float(bad);  // the next one too: sums overflow
+                std::vector<float> refined(3 * std::size_t(table.refinedCount)), normals(refined.size());
+                evaluator.evaluate(control, refined, normals);
+                std::size_t broken = 0;
+                for (std::size_t v = 0; v < table.refinedCount; ++v) {
+                    const float* p = &refined[3 * v];
+                    if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) continue;
+                    ++broken;
+                    const float* n = &normals[3 * v];
+                    ASSERT_FALSE(std::isfinite(n[0]) && std::isfinite(n[1]) && std::isfinite(n[2])) << "vertex " << v;
+                }
+                EXPECT_GT(broken, 0u);
+            }
+        }
+    }
+}
+
 // refine() builds the finest level's faces only and walks the lattices on level N - 2, kept
 // as it goes (level B itself at t = 1, a level of its own at t = 2 and 3): the same table as
 // from the whole hierarchy, with both boundary modes (a split boundary renumbers the faces the

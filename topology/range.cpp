@@ -78,4 +78,6 @@ void requireFinite(std::span<const float> xyz, const std::string& input, const s
     requireFiniteValues(xyz, input, what);
 }
 
+bool allFinite(std::span<const float> values) { return allFiniteByPieces(values.data(), values.size()); }
+
 }  // namespace psub

@@ -101,6 +101,8 @@ void checkCoordinateRange(const Mesh& mesh, Precision precision);
 // non-finite value of `xyz` (3 per vertex), so that no command writes one.
 void requireFinite(std::span<const double> xyz, const std::string& input, const std::string& what);
 void requireFinite(std::span<const float> xyz, const std::string& input, const std::string& what);
+// Whether every value is finite (requireFinite's test, without the error).
+bool allFinite(std::span<const float> values);
 
 // ---------------------------------------------------------------------------------------
 // OBJ I/O
