@@ -197,7 +197,7 @@ struct Playback {
 #endif
     bool textured = false;  // frames are drawn with textureImage
     std::optional<Verifier> verifier;
-    std::vector<std::uint32_t> faceless;  // the vertices on no face, then UINT32_MAX (checkFrame)
+    std::vector<std::uint32_t> faceless;  // the vertices on no face (checkFrame), listed at set-up
     std::string device;
     TableForm form = TableForm::PerLevel;  // the evaluator's; Tiled writes drawing order
     std::string formReason;                // why auto chose it, for the summary
@@ -232,14 +232,8 @@ void Playback::checkFrame(int index) {
     // face (their normal 0 whatever their position): half the bytes a frame (Spot at 12 steps:
     // the check was a sixth of the loop's time). The positions are scanned whole only when
     // something is not finite, to name the first bad one as before.
-    if (faceless.empty()) {
-        const SurfaceTable& surface = evaluator->surface();
-        for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
-            if (surface.vertexOffsets[v + 1] == surface.vertexOffsets[v]) faceless.push_back(v);
-        faceless.push_back(UINT32_MAX);  // planned: the list ends here
-    }
     bool finite = allFinite(normals);
-    for (std::size_t i = 0; finite && faceless[i] != UINT32_MAX; ++i)
+    for (std::size_t i = 0; finite && i < faceless.size(); ++i)
         finite = allFinite(std::span<const float>(refined).subspan(3 * std::size_t(faceless[i]), 3));
     if (finite) return;
     requireFinite(refined, frame, "refined");
@@ -396,6 +390,11 @@ int prepare(Playback& p) {
     p.drawsKept = p.rendering() && onDevice && !p.verifier && !p.textured;
 #endif
     p.readBack = p.verifier || (p.rendering() && !p.drawsKept) || p.evaluator->resultsOnHost();
+    if (p.readBack) {
+        const SurfaceTable& surface = p.evaluator->surface();
+        for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
+            if (surface.vertexOffsets[v + 1] == surface.vertexOffsets[v]) p.faceless.push_back(v);
+    }
 #if PSUB_HAVE_RENDER
     if (p.rendering()) {
         RenderOptions ro;
