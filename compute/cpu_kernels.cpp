@@ -76,7 +76,7 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     const std::uint32_t wide = sl.offset + 3 < sl.stride ? sourceCount : sourceCount - 1;
     const float* base = source + sl.offset;
     const std::size_t stride = sl.stride;
-    auto load = [&](std::uint32_t i) {
+    auto load = [&](std::uint32_t i) __attribute__((always_inline)) {
         if constexpr (Padded3) return _mm_loadu_ps(source + 3 * std::size_t(i));
         const float* q = base + std::size_t(i) * stride;
         if (i < wide) [[likely]]
@@ -87,7 +87,7 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     const std::uint32_t* destinations = table.destinations.data() + g.rowBegin;
     const __m128 zero = _mm_setzero_ps();
     const __m128 diagonalTerm = _mm_mul_ps(diagonal, zero);
-    auto row = [&](std::uint64_t r) {
+    auto row = [&](std::uint64_t r) __attribute__((always_inline)) {
         const std::uint32_t* ix = indices + r * width;
         if constexpr (Lean) {
             __m128 edges = load(ix[1]);
@@ -102,7 +102,7 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
             for (std::uint32_t j = 1 + n; j < width; ++j) diagonals = _mm_add_ps(diagonals, load(ix[j]));
         return _mm_add_ps(_mm_add_ps(acc, _mm_mul_ps(edge, edges)), _mm_mul_ps(diagonal, diagonals));
     };
-    auto store3 = [](float* out, __m128 v) {
+    auto store3 = [](float* out, __m128 v) __attribute__((always_inline)) {
         _mm_storel_pi(reinterpret_cast<__m64*>(out), v);
         _mm_store_ss(out + 2, _mm_movehl_ps(v, v));
     };
@@ -111,14 +111,31 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     // the intermediate ones of a region-ordered table) and the range's are consecutive (a level's
     // new face points, say), they need not be read, and a row's 16-byte store may spill into the
     // next row's vertex, written next by this thread (packed destinations only).
-    const std::uint32_t first = destinations[r0];
-    if (ascending && destinations[r1 - 1] - first == r1 - 1 - r0) {
-        float* out = destination + std::size_t(first) * dl.stride + dl.offset;
+    // Forced inline, as the lambdas above: called as functions from it, the rows reloaded every
+    // value they captured, from memory, each row (2x slower).
+    const auto consecutive = [&](std::uint64_t begin, std::uint64_t end) __attribute__((always_inline)) {
+        float* out = destination + std::size_t(destinations[begin]) * dl.stride + dl.offset;
         if (dl.stride == 3) {
-            for (std::uint64_t r = r0; r + 1 < r1; ++r, out += 3) _mm_storeu_ps(out, row(r));
-            store3(out, row(r1 - 1));
+            for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, row(r));
+            store3(out, row(end - 1));
         } else {
-            for (std::uint64_t r = r0; r < r1; ++r, out += dl.stride) store3(out, row(r));
+            for (std::uint64_t r = begin; r < end; ++r, out += dl.stride) store3(out, row(r));
+        }
+    };
+    if (ascending && destinations[r1 - 1] - destinations[r0] == r1 - 1 - r0) return consecutive(r0, r1);
+    // Ascending with gaps (the tiled form's finest level, grouped within chunks of its walk:
+    // docs/tiled.md, "Output order"): blocks of kConsecutiveBlock rows whose destinations are
+    // consecutive are stored as above, the others one by one.
+    if (ascending && dl.stride == 3) {
+        constexpr std::uint64_t kConsecutiveBlock = 64;
+        for (std::uint64_t begin = r0; begin < r1; begin += kConsecutiveBlock) {
+            const std::uint64_t end = std::min(begin + kConsecutiveBlock, r1);
+            if (destinations[end - 1] - destinations[begin] == end - 1 - begin) {
+                consecutive(begin, end);
+                continue;
+            }
+            for (std::uint64_t r = begin; r < end; ++r)
+                store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, row(r));
         }
         return;
     }

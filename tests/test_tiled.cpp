@@ -237,8 +237,8 @@ TEST(Tiled, DrawingOrderIsAPermutation) {
 // fallback) a finest face's corners lie close in drawing order, where in canonical order they
 // lie far apart (corners from every level); every level's rows still ascend by destination
 // within each group (what the CPU kernel's consecutive-store path relies on), and every group
-// of the walk-ordered intermediate levels writes consecutive points (groupLevelPoints), with
-// tiles too (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the
+// of the walk-ordered intermediate levels writes consecutive points (groupLevelPoints), the
+// finest level's groups mostly consecutive points (groupFinestInChunks), with tiles too (Spot at 9 steps, TileSides::Every: the fallback's levels after B renumbered); the
 // same values, on one thread and on two (each level split in even shares of every group from
 // walkFrom on).
 TEST(Tiled, TheFallbackIsInWalkOrder) {
@@ -282,6 +282,19 @@ TEST(Tiled, TheFallbackIsInWalkOrder) {
                     << "level " << k << ", group " << g;
             }
         EXPECT_GT(grouped, 4u);
+    }
+    // The finest level's fallback points are grouped the same way within chunks of the walk
+    // (groupFinestInChunks): most rows of a group write the point after the one the row before
+    // wrote (in plain walk order a face point and a vertex point alternate: almost none do).
+    for (const PerLevelTable* rows : {&table.rows, &spotTable.rows}) {
+        const StencilLevel& finestRows = rows->levels.back();
+        std::uint64_t next = 0, total = 0;
+        for (std::uint64_t g = finestRows.groupBegin; g < finestRows.groupEnd; ++g) {
+            const RowGroup& group = rows->groups[g];
+            for (std::uint64_t r = group.rowBegin + 1; r < group.rowBegin + group.rowCount; ++r, ++total)
+                next += rows->destinations[r] == rows->destinations[r - 1] + 1;
+        }
+        EXPECT_GT(next, total * 9 / 10) << next << " of " << total;
     }
     EXPECT_LE(maxDifference(tiledCanonical<float>(spotTable, spot.mesh.positions), refinePositions(spotH, spot.mesh.positions)),
               1e-6 * diagonal(spot.mesh.positions));
