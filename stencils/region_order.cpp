@@ -221,32 +221,62 @@ std::vector<std::uint32_t> fallbackWalkOrder(const TiledTable& table, const std:
     return position;
 }
 
+// Per point of level k + 1 by its new number (`position`: old number -> new), the group
+// within level k of the row that writes it (`groups`, past the last, where no row does).
+std::vector<std::uint32_t> writerGroups(const PerLevelTable& rows, std::size_t k, const std::vector<std::uint32_t>& position) {
+    const StencilLevel& writers = rows.levels[k];
+    std::vector<std::uint32_t> groupOf(writers.destinationCount, std::uint32_t(writers.groupEnd - writers.groupBegin));
+    for (std::uint64_t g = writers.groupBegin; g < writers.groupEnd; ++g) {
+        const RowGroup& group = rows.groups[g];
+        for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r)
+            groupOf[position[rows.destinations[r]]] = std::uint32_t(g - writers.groupBegin);
+    }
+    return groupOf;
+}
+
+// Per point, its number once the points from `from` on are grouped within each run of `chunk`:
+// group by group of groupOf (0 .. groups, `groups` last), each group's in their order (points
+// before `from` keep their numbers).
+std::vector<std::uint32_t> groupedNumbers(const std::vector<std::uint32_t>& groupOf, std::uint32_t groups,
+                                          std::uint32_t from, std::uint32_t chunk) {
+    const std::uint32_t count = std::uint32_t(groupOf.size());
+    std::vector<std::uint32_t> number(count), starts;
+    for (std::uint32_t q = 0; q < from; ++q) number[q] = q;
+    for (std::uint32_t begin = from; begin < count; begin += chunk) {
+        const std::uint32_t end = begin + std::min(chunk, count - begin);
+        starts.assign(std::size_t(groups) + 2, 0);
+        for (std::uint32_t q = begin; q < end; ++q) ++starts[groupOf[q] + 1];
+        starts[0] = begin;
+        for (std::uint32_t i = 0; i <= groups; ++i) starts[i + 1] += starts[i];
+        for (std::uint32_t q = begin; q < end; ++q) number[q] = starts[groupOf[q]]++;
+    }
+    return number;
+}
+
+// The finest level's fallback points are grouped within chunks of kFinestChunk walk positions,
+// the intermediate levels' whole (groupLevelPoints; in chunks of 1024 too, the cow's rows at 7
+// steps were no faster). Chunks of 4096 spread a block of vertices' faces past the one-pass
+// normals' window on the cow at 7 steps (the two passes then, normals 2.1 -> 4.5 ms); 256 and 512
+// were slower.
+constexpr std::uint32_t kFinestChunk = 1024;
+
 // Level k's points (k >= 1), numbered by `position` (old number -> new), renumbered again:
 // group by group of the level-(k - 1) rows that write them, each group's in their order by
 // `position` (points no row writes last); level k's rows, already rewritten with `position`,
 // are remapped, and `position` becomes the composed numbering. So each group of level k - 1
 // writes consecutive points, in order: the CPU kernel then reads no destination and stores 16
 // bytes a point (docs/tiled.md, "Output order").
-void groupLevelPoints(PerLevelTable& rows, std::size_t k, std::vector<std::uint32_t>& position,
-                      std::vector<std::uint32_t>& groupOf, std::vector<std::uint32_t>& starts) {
+void groupLevelPoints(PerLevelTable& rows, std::size_t k, std::vector<std::uint32_t>& position) {
     const StencilLevel& writers = rows.levels[k - 1];
-    const std::uint32_t groups = std::uint32_t(writers.groupEnd - writers.groupBegin), count = writers.destinationCount;
-    groupOf.assign(count, groups);  // per point by its current new number: its writer's group
-    for (std::uint64_t g = writers.groupBegin; g < writers.groupEnd; ++g) {
-        const RowGroup& group = rows.groups[g];
-        for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r)
-            groupOf[position[rows.destinations[r]]] = std::uint32_t(g - writers.groupBegin);
-    }
-    starts.assign(std::size_t(groups) + 2, 0);
-    for (std::uint32_t q = 0; q < count; ++q) ++starts[groupOf[q] + 1];
-    for (std::uint32_t i = 0; i <= groups; ++i) starts[i + 1] += starts[i];
-    for (std::uint32_t q = 0; q < count; ++q) groupOf[q] = starts[groupOf[q]]++;  // now: q's final number
-    for (std::uint32_t& p : position) p = groupOf[p];
+    const std::uint32_t groups = std::uint32_t(writers.groupEnd - writers.groupBegin);
+    const std::vector<std::uint32_t> number =
+        groupedNumbers(writerGroups(rows, k - 1, position), groups, 0, writers.destinationCount);
+    for (std::uint32_t& p : position) p = number[p];
     const StencilLevel& readers = rows.levels[k];
     const auto begin = rows.indices.begin() + std::ptrdiff_t(rows.groups[readers.groupBegin].indexBegin);
     const RowGroup& last = rows.groups[readers.groupEnd - 1];
     const auto end = rows.indices.begin() + std::ptrdiff_t(last.indexBegin + last.rowCount * last.width);
-    for (auto it = begin; it != end; ++it) *it = groupOf[*it];
+    for (auto it = begin; it != end; ++it) *it = number[*it];
 }
 
 // The fallback's finest points (drawing positions from fallbackBegin), numbered in walk order
@@ -256,29 +286,11 @@ void groupLevelPoints(PerLevelTable& rows, std::size_t k, std::vector<std::uint3
 // destination there and stores 16 bytes a point), while a finest face's corners stay within a
 // chunk or two (the normals' passes read them close together).
 void groupFinestInChunks(const PerLevelTable& rows, std::uint32_t fallbackBegin, std::vector<std::uint32_t>& position) {
-    // Chunks of 4096 spread a block of vertices' faces past the one-pass normals' window on the
-    // cow at 7 steps (the two passes then, normals 2.1 -> 4.5 ms); 256 and 512 were slower.
-    constexpr std::uint32_t kFinestChunk = 1024;
     const StencilLevel& writers = rows.levels.back();
     const std::uint32_t groups = std::uint32_t(writers.groupEnd - writers.groupBegin);
-    const std::uint32_t count = writers.destinationCount;
-    std::vector<std::uint32_t> groupOf(count, groups);  // per new position: its writer's group
-    for (std::uint64_t g = writers.groupBegin; g < writers.groupEnd; ++g) {
-        const RowGroup& group = rows.groups[g];
-        for (std::uint64_t r = group.rowBegin; r < group.rowBegin + group.rowCount; ++r)
-            groupOf[position[rows.destinations[r]]] = std::uint32_t(g - writers.groupBegin);
-    }
-    std::vector<std::uint32_t> regrouped(count), starts;
-    for (std::uint32_t p = 0; p < fallbackBegin; ++p) regrouped[p] = p;
-    for (std::uint32_t begin = fallbackBegin; begin < count; begin += kFinestChunk) {
-        const std::uint32_t end = std::min(count, begin + kFinestChunk);
-        starts.assign(std::size_t(groups) + 2, 0);
-        for (std::uint32_t p = begin; p < end; ++p) ++starts[groupOf[p] + 1];
-        starts[0] = begin;
-        for (std::uint32_t i = 0; i <= groups; ++i) starts[i + 1] += starts[i];
-        for (std::uint32_t p = begin; p < end; ++p) regrouped[p] = starts[groupOf[p]]++;
-    }
-    for (std::uint32_t& p : position) p = regrouped[p];
+    const std::vector<std::uint32_t> number =
+        groupedNumbers(writerGroups(rows, rows.levels.size() - 1, position), groups, fallbackBegin, kFinestChunk);
+    for (std::uint32_t& p : position) p = number[p];
 }
 
 }  // namespace
@@ -311,7 +323,7 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
     // and its row within the level (low 32), or kNoRow.
     constexpr std::uint64_t kNoRow = ~std::uint64_t(0);
     std::vector<std::uint64_t> rowAt, nextRow;
-    std::vector<std::uint32_t> sourcePosition, indices, groupedPoints, groupedStarts;
+    std::vector<std::uint32_t> sourcePosition, indices;
     for (std::size_t k = levels; k-- > first - 1;) {
         const StencilLevel& level = rows.levels[k];
         if (level.groupBegin == level.groupEnd) break;  // no row: nothing before it is used
@@ -371,7 +383,7 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
             for (std::uint32_t& p : sourcePosition)
                 if (p == kNone) p = used++;
         if (!sources) break;
-        groupLevelPoints(rows, k, sourcePosition, groupedPoints, groupedStarts);
+        groupLevelPoints(rows, k, sourcePosition);
         position.swap(sourcePosition);
     }
 }
