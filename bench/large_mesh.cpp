@@ -1,7 +1,7 @@
 // Large-mesh run (a benchmark, not a test): refines a generated N x N quad torus until it has
 // at least TARGET faces, evaluates three frames with the per-level table (or, with `tiled`,
-// positions and then positions + normals with the tiled form), and reports time, peak memory
-// and bytes per refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32
+// positions and then positions + normals with the tiled form, and the memory resident after
+// them), and reports time, peak memory and bytes per refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32
 // entries.
 //   psub_large_mesh [N=512] [TARGET_FACES=50000000] [per-level|tiled]
 #include "bench.h"
@@ -9,6 +9,7 @@
 #include "psub/stencils.h"
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -21,6 +22,16 @@ double peakGiB() {
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
     return double(usage.ru_maxrss) / (1024.0 * 1024.0);
+}
+
+// Resident memory now (Linux: /proc/self/statm's second field, in pages); -1 where unreadable.
+double residentGiB() {
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    if (!statm) return -1;
+    unsigned long long size = 0, resident = 0;
+    const bool read = std::fscanf(statm, "%llu %llu", &size, &resident) == 2;
+    std::fclose(statm);
+    return read ? double(resident) * double(sysconf(_SC_PAGESIZE)) / double(1u << 30) : -1;
 }
 
 }  // namespace
@@ -73,6 +84,7 @@ int main(int argc, char** argv) {
         time("positions", [&] { evaluator.evaluate(control, refined); }, evaluator.threads());
         std::vector<float> normals(refined.size());
         time("positions + normals", [&] { evaluator.evaluate(control, refined, normals); }, evaluator.threads());
+        std::printf("resident with the evaluator after its frames: %.2f GiB\n", residentGiB());
         for (float value : normals)
             if (!(std::abs(value) <= 1.0f + 1e-5f)) {
                 std::printf("FAILED: normal component %g is not that of a unit vector\n", double(value));

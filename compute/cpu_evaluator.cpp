@@ -191,12 +191,19 @@ void CpuEvaluator<T>::allocate() {
         total += std::uint64_t(perLevel.levels[k].destinationCount) * width + kLevelPadding;
     }
     if (form_ != TableForm::Factorized) levels_.resize(total);
-    faceNormals_.resize(4 * (surface.faceOffsets.size() - 1));  // padded to 4: one aligned load each
     allQuads_ = surface.faceVerts.size() == 4 * (surface.faceOffsets.size() - 1);
     for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
         allQuads_ = surface.faceOffsets[f] == 4 * f;
     planNormalWindow();
     planRestWindow();
+}
+
+// A normal per face (padded to 4: one aligned load each), for the two passes, allocated at their
+// first frame: where the one pass runs it would be memory unused (16 bytes a face: 268 MB at 16.8M
+// faces), zeroed at construction all the same.
+template <class T>
+void CpuEvaluator<T>::needFaceNormals() {
+    if (faceNormals_.empty()) faceNormals_.resize(4 * (surface_.faceOffsets.size() - 1));
 }
 
 // Plans windowedNormalsSimd on a surface of at least kWindowMinFaces quads: blocks of
@@ -273,8 +280,9 @@ void CpuEvaluator<T>::planNormalWindow() {
 // the listed vertices block by block, and their faces as a stream in order of first use, a face
 // read again more than a window on taken again (so every block's faces lie in the window). The
 // stream's corners are copied (32-bit: a run of stream faces spans tiles and fallback), a ring
-// face's marked (kRingFace): its normal is the tile pass's, not computed again from positions the
-// tile pass wrote past the caches. From kWindowMinFaces faces, as the plan of every vertex: on
+// face's marked (kRingFace, then its place in ringNormals_): its normal is the tile pass's, kept
+// there in ring order (no face normal for the whole surface), not computed again from positions
+// the tile pass wrote past the caches. From kWindowMinFaces faces, as the plan of every vertex: on
 // smaller meshes the two passes were as fast (a 20k-face torus, two threads: 45-46 against 48-49 us
 // for a frame with normals).
 template <class T>
@@ -291,8 +299,8 @@ void CpuEvaluator<T>::planRestWindow() {
     w.to.resize(blocks);
     w.fourFaceBlocks.resize(blocks);
     std::vector<std::uint32_t> streamOf(surface.faceOffsets.size() - 1, UINT32_MAX), corners;
-    std::vector<char> ring(surface.faceOffsets.size() - 1, 0);
-    for (std::uint32_t f : tileNormals_.ringFaces) ring[f] = 1;
+    std::vector<std::uint32_t> ringSlot(surface.faceOffsets.size() - 1, UINT32_MAX);  // per face, in ringNormals_
+    for (std::size_t i = 0; i < tileNormals_.ringFaces.size(); ++i) ringSlot[tileNormals_.ringFaces[i]] = std::uint32_t(i);
     std::uint32_t streamed = 0;
     for (std::uint32_t b = 0; b < blocks; ++b) {
         const std::uint32_t q0 = b * kWindowBlock, q1 = std::min(count, q0 + kWindowBlock);
@@ -314,8 +322,8 @@ void CpuEvaluator<T>::planRestWindow() {
                 const std::uint32_t f = surface.vertexFaces[j];
                 if (streamOf[f] == UINT32_MAX || streamOf[f] < keep) {
                     streamOf[f] = streamed++;
-                    if (ring[f])
-                        corners.insert(corners.end(), {kRingFace, f, 0, 0});
+                    if (ringSlot[f] != UINT32_MAX)
+                        corners.insert(corners.end(), {kRingFace, ringSlot[f], 0, 0});
                     else
                         corners.insert(corners.end(), surface.faceVerts.begin() + 4 * std::size_t(f),
                                        surface.faceVerts.begin() + 4 * std::size_t(f) + 4);
@@ -345,6 +353,7 @@ void CpuEvaluator<T>::planRestWindow() {
     w.rings = true;
     w.vertices = list;
     restWindow_ = std::move(w);
+    ringNormals_.assign(4 * tileNormals_.ringFaces.size(), T(0));
 }
 
 // Runs of kCornerRun faces, each corner 3 x its offset from the run's least corner, where every
@@ -427,6 +436,14 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
     const TiledTable& tiled = *tiled_;
     const T* base = tiled.tileCount() == 0 || tiled.baseLevel == 0 ? control.data() : levels_.data() + levelBase_[tiled.baseLevel - 1];
     const std::size_t scratchSize = tileScratchSize(tiled, width_);
+    if (normals && !restWindow_.planned()) needFaceNormals();
+    // The tile pass's ring faces' normals: for the rest's one pass, in ringNormals_, in ring
+    // order; for its two passes, at their faces in faceNormals_.
+    const auto tileNormals = [&](std::size_t k) {
+        if (!normals) return TileNormals<T>{};
+        if (restWindow_.planned()) return TileNormals<T>{normals, ringNormals_.data() + 4 * std::size_t(tileNormals_.ringBegin[k]), nullptr};
+        return TileNormals<T>{normals, faceNormals_.data(), tileNormals_.ringFaces.data() + tileNormals_.ringBegin[k]};
+    };
 #pragma omp parallel num_threads(team) if (team > 1)
     {
         for (std::size_t k = 0; k < levels; ++k) {
@@ -440,10 +457,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         // meshes, largest first, so chunks of several left one thread most of the work.
 #pragma omp for schedule(dynamic, 1)
         for (std::size_t k = 0; k < tiled.tileCount(); ++k)
-            evaluateTile(tiled, k, base, width_, refined.data(),
-                         TileNormals<T>{normals, faceNormals_.data(),
-                                        tileNormals_.ringFaces.data() + (normals ? tileNormals_.ringBegin[k] : 0)},
-                         scratch);
+            evaluateTile(tiled, k, base, width_, refined.data(), tileNormals(k), scratch);
         // After the loop's implicit barrier every position is written.
         if (normals && restWindow_.planned())
             windowedNormalsSimd(refined.data(), normals, restWindow_);
@@ -456,6 +470,7 @@ template <class T>
 void CpuEvaluator<T>::normals(std::span<const T> refined, std::span<T> normals) {
     assert(width_ >= 3 && normals.size() >= 3 * std::size_t(surface_.vertexCount));
     const int team = teamFor(3 * std::uint64_t(surface_.vertexCount), threads_);
+    if (!window_.planned()) needFaceNormals();
 #pragma omp parallel num_threads(team) if (team > 1)
     {
         if (window_.planned())
@@ -826,7 +841,7 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out, const NormalWindow
                 } else {
                     for (const std::uint32_t* c = faceVerts + 4 * std::size_t(f); f < to; ++f, c += 4, s += 4) {
                         if (w.rings && c[0] == kRingFace) {  // a ring face: the tile pass's normal
-                            _mm_store_ps(s, _mm_load_ps(faceNormals_.data() + 4 * std::size_t(c[1])));
+                            _mm_store_ps(s, _mm_load_ps(ringNormals_.data() + 4 * std::size_t(c[1])));
                             continue;
                         }
                         _mm_store_ps(s, quadNormal(_mm_loadu_ps(p + 3 * std::size_t(c[0])), _mm_loadu_ps(p + 3 * std::size_t(c[1])),

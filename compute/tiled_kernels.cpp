@@ -451,12 +451,13 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     std::uint32_t quadRow = 0;
     std::size_t normalsStreamed = 0;
     const std::uint32_t* ring = normals.ringFaces;
+    std::size_t slot = 0;
     // Row r of quad normals: its ring quads' to their faces (all of rows 0 and L - 1, the ends of
     // the others).
     const auto toFaces = [&](const T* q, std::uint32_t r) {
         if (!normals.faceNormals) return;
         for (std::uint32_t i = 0; i < L; i += (r == 0 || r + 1 == L) ? 1 : L - 1) {
-            T* f = normals.faceNormals + 4 * std::size_t(*ring++);
+            T* f = normals.faceNormals + 4 * (ring ? std::size_t(*ring++) : slot++);
             f[0] = q[i], f[1] = q[side + i], f[2] = q[2 * side + i], f[3] = 0;
         }
     };

@@ -533,6 +533,10 @@ void expectFusedNormals(const TiledTable& table, const std::vector<double>& posi
     evaluator.evaluate(control, alone);
     evaluator.evaluate(control, fused, normals);
     ASSERT_EQ(fused, alone);
+    // The rest in one pass keeps only the ring faces' normals, not one for every face.
+    if (inTilePass) {
+        EXPECT_EQ(evaluator.holdsFaceNormals(), !evaluator.restNormalsInOnePass());
+    }
     evaluator.normals(fused, expected);
     for (std::size_t i = 0; i < expected.size(); ++i)
         ASSERT_NEAR(double(normals[i]), double(expected[i]), tolerance) << "value " << i << " width " << width;

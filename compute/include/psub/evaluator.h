@@ -46,8 +46,8 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source,
 // lattice while it is in cache: the unit normals of its inner points (3 per vertex, drawing
 // order; its border points' faces are not all in its lattice) and, when `faceNormals` is given,
 // the face normals (4 values per face: x, y, z, 0, as CpuEvaluator keeps them) of the quads on
-// its lattice's outer ring, the ring's i-th quad at face ringFaces[i] (row 0 of quads, then the
-// first and last quad of each row between, then row L - 1).
+// its lattice's outer ring, the ring's i-th quad at face ringFaces[i], or at i where ringFaces
+// is null (row 0 of quads, then the first and last quad of each row between, then row L - 1).
 template <class T>
 struct TileNormals {
     T* normals = nullptr;
@@ -126,6 +126,10 @@ public:
     // The tiled form's normals outside its tiles' inner points (evaluate with normals, where
     // normalsInTilePass()) run as one pass too (planRestWindow), not two over lists.
     bool restNormalsInOnePass() const { return restWindow_.planned(); }
+    // A normal per face of the surface is held (16 bytes a face): only once the two passes have
+    // run (the one pass needs none; the tiled form's rest in one pass keeps only its tiles' ring
+    // faces' normals).
+    bool holdsFaceNormals() const { return !faceNormals_.empty(); }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
     void evaluate(std::span<const T> control, std::span<T> refined);
@@ -182,6 +186,7 @@ private:
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
+    void needFaceNormals();                      // faceNormals_, at the first frame of the two passes
     void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
 
     const PerLevelTable& perLevel_;
@@ -192,7 +197,8 @@ private:
     int threads_;
     std::vector<T> levels_;                 // intermediate levels, back to back
     std::vector<std::uint64_t> levelBase_;  // offset of each intermediate level in levels_
-    std::vector<T> faceNormals_;  // 4 per face, the 4th 0
+    std::vector<T> faceNormals_;  // 4 per face, the 4th 0 (empty until the two passes first run)
+    std::vector<T> ringNormals_;  // the tiles' ring faces' normals, 4 each in ringFaces order (restWindow_)
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f
     // The normal passes prefetch the positions and face normals they will gather: worth it in
     // the canonical order (the cow at 7 steps, per-level: normals 7.2-8.0 ms against 9.5-9.9
