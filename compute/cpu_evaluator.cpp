@@ -196,11 +196,13 @@ void CpuEvaluator<T>::allocate() {
         allQuads_ = surface.faceOffsets[f] == 4 * f;
     planNormalWindow();
     planRestWindow();
+    if (!window_.planned() && !restWindow_.planned()) needFaceNormals();
 }
 
-// A normal per face (padded to 4: one aligned load each), for the two passes, allocated at their
-// first frame: where the one pass runs it would be memory unused (16 bytes a face: 268 MB at 16.8M
-// faces), zeroed at construction all the same.
+// A normal per face (padded to 4: one aligned load each), for the two passes: allocated at
+// construction where they are the evaluator's way (a frame allocates nothing), not where the one
+// pass is (16 bytes a face unused: 268 MB at 16.8M faces). A tiled evaluator whose rest runs in
+// one pass allocates it at its first normals() call.
 template <class T>
 void CpuEvaluator<T>::needFaceNormals() {
     if (faceNormals_.empty()) faceNormals_.resize(4 * (surface_.faceOffsets.size() - 1));

@@ -98,7 +98,7 @@ enum class TableForm { PerLevel, Factorized, Tiled };
 //
 // The per-frame evaluator: control points in, refined vertices out, on up to `threads`
 // threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the intermediate levels are allocated once, here; a frame
-// allocates nothing. Keeps references to the tables: they must outlive the evaluator.
+// allocates nothing (one exception: normals(), below). Keeps references to the tables: they must outlive the evaluator.
 // The threads a CpuEvaluator's frame of `table`'s per-level rows runs on, of `threads` (0: all
 // cores): one per ~32k output values, so small meshes run on one. A caller ordering the table by
 // region (orderLevelsByRegion) makes this many regions.
@@ -126,9 +126,8 @@ public:
     // The tiled form's normals outside its tiles' inner points (evaluate with normals, where
     // normalsInTilePass()) run as one pass too (planRestWindow), not two over lists.
     bool restNormalsInOnePass() const { return restWindow_.planned(); }
-    // A normal per face of the surface is held (16 bytes a face): only once the two passes have
-    // run (the one pass needs none; the tiled form's rest in one pass keeps only its tiles' ring
-    // faces' normals).
+    // A normal per face of the surface is held (16 bytes a face): only for the two passes (the
+    // one pass needs none; the tiled form's rest in one pass keeps only its tiles' ring faces').
     bool holdsFaceNormals() const { return !faceNormals_.empty(); }
 
     // control: controlCount() * width() values, packed; refined: refinedCount() * width().
@@ -143,7 +142,9 @@ public:
 
     // Unit vertex normals (3 per vertex) of the refined surface whose positions are the first
     // three values of each `width()`-element of `refined`: area-weighted face normals summed
-    // over each vertex's faces.
+    // over each vertex's faces. The one call that allocates: the first, on a tiled evaluator
+    // whose frames make their normals without it (restNormalsInOnePass()), allocates a normal
+    // per face for its two passes.
     void normals(std::span<const T> refined, std::span<T> normals);
 
 private:
