@@ -418,11 +418,15 @@ TEST(Evaluator, FloatLevelRowsAreBitIdenticalToTheScalarDefinition) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 3);
     PerLevelTable facePoints = r.perLevel;
     ASSERT_GT(vertexRowsFromFacePoints(facePoints), 0u);
+    // The tiled form's rows (the cow: no tile): walk order, the finest level's groups writing
+    // runs of consecutive points with gaps (docs/tiled.md, "Output order").
+    const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    ASSERT_EQ(tiled.tileCount(), 0u);
     std::mt19937 random(7);
     std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
-    for (const PerLevelTable* table : std::initializer_list<const PerLevelTable*>{&r.perLevel, &facePoints})
+    for (const PerLevelTable* table : std::initializer_list<const PerLevelTable*>{&r.perLevel, &facePoints, &tiled.rows})
     for (const BufferLayout layout : {BufferLayout{0, 3, 3}, BufferLayout{1, 3, 5}, BufferLayout{2, 3, 5}}) {
-        SCOPED_TRACE(table == &facePoints ? "vertex rows from face points" : "as built");
+        SCOPED_TRACE(table == &facePoints ? "vertex rows from face points" : table == &tiled.rows ? "tiled form's rows" : "as built");
         std::vector<float> source(std::size_t(table->controlCount) * layout.stride);
         for (float& x : source) x = uniform(random);
         for (std::size_t k = 0; k < table->levels.size(); ++k) {
