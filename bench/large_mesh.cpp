@@ -1,8 +1,8 @@
 // Large-mesh run (a benchmark, not a test): refines a generated N x N quad torus until it has
 // at least TARGET faces, evaluates three frames with the per-level table (or, with `tiled`,
 // positions and then positions + normals with the tiled form, and the memory resident after
-// them), and reports time, peak memory and bytes per refined face. Indices are 32-bit: the memory guard refuses sizes past 2^32
-// entries.
+// them), and reports time, peak memory and bytes per refined face. Indices are 32-bit: the
+// memory guard refuses sizes past 2^32 entries.
 //   psub_large_mesh [N=512] [TARGET_FACES=50000000] [per-level|tiled]
 #include "bench.h"
 #include "psub/evaluator.h"

@@ -242,13 +242,13 @@ std::vector<std::uint32_t> groupedNumbers(const std::vector<std::uint32_t>& grou
     const std::uint32_t count = std::uint32_t(groupOf.size());
     std::vector<std::uint32_t> number(count), starts;
     for (std::uint32_t q = 0; q < from; ++q) number[q] = q;
-    for (std::uint32_t begin = from; begin < count; begin += chunk) {
-        const std::uint32_t end = begin + std::min(chunk, count - begin);
+    for (std::uint64_t begin = from; begin < count; begin += chunk) {  // 64-bit: no wrap near 2^32
+        const std::uint32_t end = std::uint32_t(std::min<std::uint64_t>(begin + chunk, count));
         starts.assign(std::size_t(groups) + 2, 0);
-        for (std::uint32_t q = begin; q < end; ++q) ++starts[groupOf[q] + 1];
-        starts[0] = begin;
+        for (std::uint32_t q = std::uint32_t(begin); q < end; ++q) ++starts[groupOf[q] + 1];
+        starts[0] = std::uint32_t(begin);
         for (std::uint32_t i = 0; i <= groups; ++i) starts[i + 1] += starts[i];
-        for (std::uint32_t q = begin; q < end; ++q) number[q] = starts[groupOf[q]]++;
+        for (std::uint32_t q = std::uint32_t(begin); q < end; ++q) number[q] = starts[groupOf[q]]++;
     }
     return number;
 }
