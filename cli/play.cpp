@@ -210,12 +210,12 @@ struct Playback {
     // recorded, written or verified.
     void frame(int index, Timings& t, bool record = true);
     void draw(int index, Timings& t);
-    void checkFrame(int index);
+    void checkFrame(int index) const;
 };
 
 // The numeric-range policy per frame (outside the timed part): the posed control points within
 // the float limit, and the refined positions and normals (when on the host) finite.
-void Playback::checkFrame(int index) {
+void Playback::checkFrame(int index) const {
     const double limit = coordinateLimit(Precision::Float);
     const std::string frame = o.input + ": frame " + std::to_string(index);
     for (std::size_t i = 0; i < control.size(); ++i)

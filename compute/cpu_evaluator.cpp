@@ -352,7 +352,6 @@ void CpuEvaluator<T>::planRestWindow() {
                 corners.begin() + 4 * std::size_t(i) + 4)
             w.lastVertexFaces.push_back(i);
     w.wideCorners = std::move(corners);
-    w.rings = true;
     w.vertices = list;
     restWindow_ = std::move(w);
     ringNormals_.assign(4 * tileNormals_.ringFaces.size(), T(0));
@@ -842,7 +841,7 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out, const NormalWindow
                                                    _mm_loadu_ps(q + c[3])));
                 } else {
                     for (const std::uint32_t* c = faceVerts + 4 * std::size_t(f); f < to; ++f, c += 4, s += 4) {
-                        if (w.rings && c[0] == kRingFace) {  // a ring face: the tile pass's normal
+                        if (listed && c[0] == kRingFace) {  // a ring face: the tile pass's normal
                             _mm_store_ps(s, _mm_load_ps(ringNormals_.data() + 4 * std::size_t(c[1])));
                             continue;
                         }

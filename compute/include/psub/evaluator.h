@@ -170,9 +170,10 @@ private:
         // its offset in floats (empty where a run's corners span more than 21,845 vertices).
         std::vector<std::uint16_t> corners;
         std::vector<std::uint32_t> cornerBase;
-        std::vector<std::uint32_t> wideCorners;  // else the stream's corners (empty: the surface's faceVerts)
+        // Else the stream's corners (empty: the surface's faceVerts); a listed plan's (the tiled
+        // form's rest) mark the tiles' ring faces (kRingFace), whose normals the tile pass made.
+        std::vector<std::uint32_t> wideCorners;
         std::vector<std::uint8_t> fourFaceBlocks;  // per block: its vertices have 4 faces each
-        bool rings = false;  // wideCorners mark the tiles' ring faces: their normals from the tile pass
         std::vector<std::uint64_t> work;  // per block, the work up to its end (empty: blocks weigh the same)
         bool planned() const { return !to.empty(); }
     };
@@ -187,7 +188,7 @@ private:
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
-    void needFaceNormals();                      // faceNormals_, at the first frame of the two passes
+    void needFaceNormals();                      // faceNormals_, for the two passes (once)
     void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
 
     const PerLevelTable& perLevel_;
