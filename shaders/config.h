@@ -46,8 +46,8 @@
 #define PSUB_SPEC_ROW_N 6              // level kernel: the rows' edge count when compiled in (0xffffffff: any)
 #define PSUB_SPEC_ROW_M 7              // level kernel: the rows' diagonal count likewise
 #define PSUB_SPEC_TILE_STEPS 8         // tile_unrolled.comp: t, the double steps it unrolls
-#define PSUB_SPEC_LISTED 9             // face and vertex normals: rows are the faces or vertices
-                                       // listed in TABLE_A (fixed layouts only), not a range
+#define PSUB_SPEC_LISTED 9             // vertex normals: row r's normal written at the vertex listed
+                                       // in TABLE_A (fixed layout) or TABLE_C (CSR), not at a range
 #define PSUB_SPEC_TILE_GRID 10         // tile.comp: the side of its shared grids (see below)
 #define PSUB_SPEC_TILE_NORMALS 11      // tile.comp, non-zero: also the tiles' inner points' unit normals,
                                        // written to PSUB_BINDING_DESTINATION + 1 (the positions in one

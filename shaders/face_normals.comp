@@ -15,24 +15,20 @@ uint offsetAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)).x : of
 uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : corners[i]; }
 
 // PSUB_SPEC_ROW_N = 4: every face is a quad, its corners at 4 row from pc.tableBase in the
-// TABLE_B window (no offsets; one uvec4 fetch).
+// TABLE_B window (no offsets; one uvec4 fetch). The tiled form's listed faces (those beside its
+// tiles' inner points) come in this layout too, in a table of their own.
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kCorners = 0xffffffffu;
-// PSUB_SPEC_LISTED (with kCorners = 4): row r is face offsets[pc.rowBase + r] (TABLE_A), its
-// corners at 4 face from pc.tableBase, written at its own element (the tiled form's faces
-// beside its tiles' inner points).
-layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
 void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
     precise vec3 n = vec3(0.0);
     if (kCorners == 4u) {
-        const uint face = kListed ? offsetAt(pc.rowBase + row) : row;
-        const uint base = pc.tableBase + 4u * face;
+        const uint base = pc.tableBase + 4u * row;
         const uvec4 c = kTexels ? texelFetch(tableTexelsB, int(base / 4u))
                                 : uvec4(corners[base], corners[base + 1u], corners[base + 2u], corners[base + 3u]);
         const vec3 n4 = quadNormal(readElement(c.x).xyz, readElement(c.y).xyz, readElement(c.z).xyz, readElement(c.w).xyz);
-        writeElement(kListed ? face : pc.rowBase + row, vec4(n4, 0.0));
+        writeElement(pc.rowBase + row, vec4(n4, 0.0));
         return;
     }
     const uint begin = offsetAt(pc.tableBase + row), end = offsetAt(pc.tableBase + row + 1u);

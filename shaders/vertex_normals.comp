@@ -19,10 +19,10 @@ uint vertexAt(uint i) { return kTexels ? texelFetch(tableTexelsC, int(i)).x : ve
 // pc.tableBase (no offsets; pc.groupCount = 2 uvec4s). The first four are added unconditionally (adding +0 changes no
 // sum), the next four in a loop that lavapipe skips unless a lane of the SIMD group needs it.
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kWords = 0xffffffffu;
-// PSUB_SPEC_LISTED: with kWords = 8, row r is vertex offsets[pc.rowBase + r] (TABLE_A), its
-// words at 8 vertex from pc.tableBase (the tiled form's vertices that its tile normals pass
-// leaves); with CSR rows, row r's sum is written at vertex vertices[pc.rowBase + r] (TABLE_C:
-// the vertices in more faces than the fixed layout holds).
+// PSUB_SPEC_LISTED: with kWords = 8, row r's sum is written at vertex offsets[pc.rowBase + r]
+// (TABLE_A; its words at 8 r as ever: the tiled form's vertices that its tile normals pass
+// leaves, their words in a table of their own); with CSR rows, at vertex vertices[pc.rowBase + r]
+// (TABLE_C: the vertices in more faces than the fixed layout holds).
 layout(constant_id = PSUB_SPEC_LISTED) const bool kListed = false;
 
 uvec4 vertexWords(uint i) {
@@ -38,7 +38,7 @@ void main() {
                         : kWords == 8u ? offsetAt(pc.rowBase + row)
                                        : vertexAt(pc.rowBase + row);
     if (kWords == 8u) {
-        const uint base = (pc.tableBase + 8u * (kListed ? vertex : row)) / 4u;
+        const uint base = (pc.tableBase + 8u * row) / 4u;
         const uvec4 q = vertexWords(base);
         n += readElement(q.x).xyz;
         n += readElement(q.y).xyz;

@@ -39,7 +39,7 @@ struct Specialization {
     bool texels = false;  // inputs and tables read through the texel-buffer bindings
     uint rowN = ~0u, rowM = ~0u;  // level kernel: the rows' shape when compiled in (~0u: any)
     uint tileSteps = 1;           // unrolled tile kernel: t
-    bool listed = false;          // face and vertex normals: over listed faces or vertices
+    bool listed = false;          // vertex normals: written at listed vertices
     uint tileGrid = PSUB_TILE_GRID;  // workgroup tile kernel: its shared grids' side
     uint tileKeptSide = 0;           // workgroup tile kernel: non-zero, also the inner points' normals
     uint tileThreads = PSUB_WORKGROUP_SIZE;  // workgroup tile kernel: its workgroup's invocations

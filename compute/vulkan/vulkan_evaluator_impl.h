@@ -164,6 +164,7 @@ struct VulkanEvaluator::Impl {
 
     // Construction steps.
     void makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride, bool mapped);
+    std::uint64_t windowElements(std::uint32_t stride) const;  // elements of `stride` floats per binding window
     // With staging: levels[0] moved to mapped device-local memory where the device has some
     // (any host-visible memory when `force`), so the host writes the control points in place.
     void placeControlsInHostVisibleMemory(bool force);
@@ -185,7 +186,7 @@ struct VulkanEvaluator::Impl {
     void buildTiles(const TiledTable& table, bool unrolled, std::uint32_t blockLimit, Uploader& uploader);  // after buildPerLevel(table.rows)
     void buildNormals(const SurfaceTable& surface, const TiledTable* tiled, Uploader& uploader);  // tiled: its split
     Stage heavyVertexStage(const SurfaceTable& surface, const std::vector<std::uint32_t>& heavy, Uploader& uploader);
-    bool buildTileNormals(const TiledTable& tiled, const Buffer& corners, const Buffer& vertexWords, Uploader& uploader);
+    bool buildTileNormals(const TiledTable& tiled, const SurfaceTable& surface, Uploader& uploader);
     void writeDescriptorSets();
 
     // Frames.

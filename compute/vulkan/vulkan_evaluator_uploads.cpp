@@ -5,17 +5,21 @@
 
 #include <algorithm>
 #include <cassert>
+#include <stdexcept>
 
 namespace psub {
+namespace {
+
+// The vertex normals' fixed layout: 8 words a vertex (its faces, then the zero element's number).
+constexpr std::uint32_t kVertexWords = 8;
+
+}  // namespace
 
 void VulkanEvaluator::Impl::makeVertexBuffer(VertexBuffer& v, std::uint64_t elements, std::uint32_t stride,
                                              bool mapped) {
     v.elements = elements;
     v.stride = stride;
-    // Windows are whole multiples of 64 elements, so each starts at a 256-byte multiple (the
-    // largest minStorageBufferOffsetAlignment the specification allows).
-    std::uint64_t perWindow = limit / (4ull * stride);
-    perWindow -= perWindow % 64;
+    const std::uint64_t perWindow = windowElements(stride);
     if (perWindow == 0) throw VulkanError("binding limit of " + std::to_string(limit) + " bytes is too small");
     const std::uint64_t windows = std::max<std::uint64_t>(1, (elements + perWindow - 1) / perWindow);
     if (windows > PSUB_VERTEX_WINDOWS)
@@ -26,6 +30,13 @@ void VulkanEvaluator::Impl::makeVertexBuffer(VertexBuffer& v, std::uint64_t elem
     v.windowSize = std::uint32_t(std::min<std::uint64_t>(perWindow, 0xffffffffu));
     const bool map = mapped && !staging;
     v.buffer = createBuffer(context, elements * stride * 4, kUsage, Memory::Device, map);
+}
+
+// Windows are whole multiples of 64 elements, so each starts at a 256-byte multiple (the largest
+// minStorageBufferOffsetAlignment the specification allows).
+std::uint64_t VulkanEvaluator::Impl::windowElements(std::uint32_t stride) const {
+    const std::uint64_t perWindow = limit / (4ull * stride);
+    return perWindow - perWindow % 64;
 }
 
 void VulkanEvaluator::Impl::placeControlsInHostVisibleMemory(bool force) {
@@ -362,9 +373,6 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
 
 void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const TiledTable* tiled, Uploader& uploader) {
     const std::uint64_t faces = surface.faceOffsets.size() - 1;
-    // Padded: read and written as vec4. One element more, after the faces': zero, cleared by
-    // every frame, for the fixed vertex layout's unused slots.
-    makeVertexBuffer(faceNormals, faces + 1, 4, false);
     makeVertexBuffer(normals, surface.vertexCount, 4, true);  // padded: written as vec4, read back as xyz
     // Two fixed layouts that save the kernels their offset loads (one uvec4 fetch per 4 words):
     // all faces quads (corners of face f at 4 f), and vertices in at most 8 faces (vertex v's 8
@@ -373,6 +381,14 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     // the fixed layout: their sums are overwritten after it by their own CSR rows (listed).
     bool allQuads = faces > 0;
     for (std::uint64_t f = 0; f < faces && allQuads; ++f) allQuads = surface.faceOffsets[f + 1] - surface.faceOffsets[f] == 4;
+    std::vector<std::uint32_t> heavy;
+    for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
+        if (surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] > kVertexWords) heavy.push_back(v);
+    const bool fixedVertices = surface.vertexCount > 0 && heavy.size() <= surface.vertexCount / 64;
+    if (tiled && allQuads && fixedVertices && heavy.empty() && buildTileNormals(*tiled, surface, uploader)) return;
+    // Padded: read and written as vec4. One element more, after the faces': zero, cleared by
+    // every frame, for the fixed vertex layout's unused slots.
+    makeVertexBuffer(faceNormals, faces + 1, 4, false);
     std::vector<std::uint32_t> faceRelative, vertexRelative;
     const std::vector<CsrChunk> faceChunks = splitCsr(surface.faceOffsets, faceRelative, "surface's faces");
     const Buffer faceVerts = uploader.upload(surface.faceVerts, tables);
@@ -380,11 +396,6 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     // corners (any valid range).
     const Buffer faceOffsets = allQuads ? faceVerts : uploader.upload(faceRelative, tables);
     const VertexBuffer& positions = refinedBuffer();
-    constexpr std::uint32_t kVertexWords = 8;
-    std::vector<std::uint32_t> heavy;
-    for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
-        if (surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] > kVertexWords) heavy.push_back(v);
-    const bool fixedVertices = surface.vertexCount > 0 && heavy.size() <= surface.vertexCount / 64;
     Buffer vertexWords;
     std::vector<std::pair<std::uint64_t, std::uint64_t>> vertexRows;
     if (fixedVertices) {
@@ -403,8 +414,6 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
             surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * kVertexWords * (b - a)); },
             "surface's vertex faces");
     }
-    if (tiled && allQuads && fixedVertices && heavy.empty() && buildTileNormals(*tiled, faceVerts, vertexWords, uploader))
-        return;
     // Otherwise the CSR table of each vertex's faces.
     const std::vector<CsrChunk> vertexChunks =
         fixedVertices ? std::vector<CsrChunk>{} : splitCsr(surface.vertexOffsets, vertexRelative, "surface's vertex faces");
@@ -482,21 +491,49 @@ Stage VulkanEvaluator::Impl::heavyVertexStage(const SurfaceTable& surface, const
 
 // The tiled form's normals split as CpuEvaluator splits them (tileNormalSets): the tiles' inner
 // points by implicit addressing (tile_normals.comp), the faces that touch the other points and
-// those points listed (face_normals.comp and vertex_normals.comp with PSUB_SPEC_LISTED, the
-// fixed layouts: `corners` 4 per face, `vertexWords` 8 per vertex). Only where the tile pass is
-// worth it (the tiles' inner points are most points) and the positions, face normals, normals,
-// corners, words and border list each fit one binding; false, with nothing built, otherwise.
-bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buffer& corners, const Buffer& vertexWords,
-                                             Uploader& uploader) {
+// those points listed, in tables of their own sized by them: the listed faces' corners, 4 a face
+// in the list's order (face_normals.comp's quad layout: a face's normal written at its place in
+// the list), and each listed vertex's 8 words (vertex_normals.comp, PSUB_SPEC_LISTED), its faces'
+// places in that list. So the face normals, corners and words take 64 bytes per listed face and
+// vertex, not per face and vertex of the surface (1 GB less on a 16.8M-face torus). Only where
+// the tile pass is worth it (the tiles' inner points are most points) and the positions,
+// normals, face normals and border list each fit one binding; false, with nothing built,
+// otherwise.
+bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const SurfaceTable& surface, Uploader& uploader) {
     const VertexBuffer& positions = refinedBuffer();
-    if (positions.windows > 1 || faceNormals.windows > 1 || normals.windows > 1 || !fits(corners.size) ||
-        !fits(vertexWords.size) || !fits(4 * std::uint64_t(tiled.border.size())))
-        return false;
+    if (positions.windows > 1 || normals.windows > 1 || !fits(4 * std::uint64_t(tiled.border.size()))) return false;
     const TileNormalSets sets = tileNormalSets(tiled);
     if (!sets.worthIt) return false;
     std::vector<std::uint32_t> faces = sets.restFaces;  // every face that touches a listed vertex
     faces.insert(faces.end(), sets.ringFaces.begin(), sets.ringFaces.end());
     std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    const std::uint64_t listedFaces = faces.size(), listedVertices = sets.restVertices.size();
+    if (listedFaces + 1 > windowElements(4)) return false;  // the face normals in one window
+    const Buffer corners = uploader.uploadFilled<std::uint32_t>(
+        4 * faces.size(),
+        [&](std::uint32_t* to) {
+            for (std::uint32_t f : faces)
+                to = std::copy_n(surface.faceVerts.begin() + surface.faceOffsets[f], 4, to);
+        },
+        tables);
+    const Buffer words = uploader.uploadFilled<std::uint32_t>(
+        std::size_t(listedVertices) * kVertexWords,
+        [&](std::uint32_t* to) {
+            for (std::uint32_t v : sets.restVertices) {
+                assert(surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] <= kVertexWords);  // no heavy vertex
+                std::uint32_t* end = to + kVertexWords;
+                for (std::uint32_t j = surface.vertexOffsets[v]; j < surface.vertexOffsets[v + 1]; ++j) {
+                    const auto at = std::lower_bound(faces.begin(), faces.end(), surface.vertexFaces[j]);
+                    if (at == faces.end() || *at != surface.vertexFaces[j])
+                        throw std::logic_error("buildTileNormals: a listed vertex's face is not listed");
+                    *to++ = std::uint32_t(at - faces.begin());
+                }
+                to = std::fill_n(to, end - to, std::uint32_t(listedFaces));  // the zero element
+            }
+        },
+        tables);
+    makeVertexBuffer(faceNormals, listedFaces + 1, 4, false);  // padded; the zero element last
     // Runs of PSUB_NORMAL_RUN x PSUB_NORMAL_ROWS inner points of each tile (config.h).
     std::vector<std::uint32_t> runs;
     for (std::size_t k = 0; k < tiled.tileCount(); ++k) {
@@ -507,7 +544,6 @@ bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buff
     }
     const Buffer border = uploader.upload(tiled.border, tables);
     const Buffer runTable = uploader.upload(runs, tables);
-    const Buffer faceList = uploader.upload(faces, tables);
     const Buffer vertexList = uploader.upload(sets.restVertices, tables);
 
     // Rows [0, count) of a list or run table of `bytes` per row, in dispatches whose window of it fits.
@@ -542,31 +578,44 @@ bool VulkanEvaluator::Impl::buildTileNormals(const TiledTable& tiled, const Buff
         d.push.tableBase = std::uint32_t(a - d.tables[0].firstElement);
         runStage.dispatches.push_back(d);
     }
-    // The listed rows of a normals kernel over the whole `entries` table (4 or 8 words a row).
-    const auto listed = [&](Kernel kernel, const std::vector<std::uint32_t>& list, const Buffer& listBuffer,
-                            const Buffer& entries, std::uint32_t words, const VertexBuffer& from, const VertexBuffer& to) {
-        Stage stage;
-        stage.kernel = kernel;
-        stage.specialization = {3, from.stride, to.stride, false, false};
-        stage.specialization.listed = true;
-        stage.written = &to;
-        for (const auto& [a, b] : chunks(list.size(), 4, "listed normals")) {
-            Dispatch d = dispatch(b - a);
-            d.source = &from;
-            d.destination = &to;
-            d.tables[0] = window(listBuffer, 4, a, b);
-            d.tables[1] = d.tables[2] = window(entries, 4, 0, entries.size / 4);
-            d.texelFormats[1] = d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
-            d.rowN = words;
-            d.push.rowBase = std::uint32_t(a - d.tables[0].firstElement);
-            d.push.groupBase = std::uint32_t(faceNormals.elements - 1);  // vertex normals: the zero element
-            d.push.groupCount = words / 4;
-            stage.dispatches.push_back(d);
-        }
-        return stage;
-    };
-    normalStages.push_back(listed(Kernel::FaceNormals, faces, faceList, corners, 4, positions, faceNormals));
-    normalStages.push_back(listed(Kernel::VertexNormals, sets.restVertices, vertexList, vertexWords, 8, faceNormals, normals));
+    // The listed faces' normals: row r (face faces[r]) from its corners at 4 r, written at r.
+    Stage faceStage;
+    faceStage.kernel = Kernel::FaceNormals;
+    faceStage.specialization = {3, positions.stride, faceNormals.stride, false, false};
+    faceStage.written = &faceNormals;
+    for (const auto& [a, b] : chunks(listedFaces, 16, "listed faces")) {
+        Dispatch d = dispatch(b - a);
+        d.source = &positions;
+        d.destination = &faceNormals;
+        d.tables[0] = d.tables[1] = d.tables[2] = window(corners, 4, 4 * a, 4 * b);  // TABLE_A unread (quads)
+        d.texelFormats[1] = VK_FORMAT_R32G32B32A32_UINT;
+        d.rowN = 4;
+        d.push.rowBase = std::uint32_t(a);
+        d.push.tableBase = std::uint32_t(4 * a - d.tables[1].firstElement);
+        faceStage.dispatches.push_back(d);
+    }
+    // The listed vertices' normals: row r (vertex restVertices[r], TABLE_A) from its 8 words at 8 r.
+    Stage vertexStage;
+    vertexStage.kernel = Kernel::VertexNormals;
+    vertexStage.specialization = {3, faceNormals.stride, normals.stride, false, false};
+    vertexStage.specialization.listed = true;
+    vertexStage.written = &normals;
+    for (const auto& [a, b] : chunks(listedVertices, 4 * kVertexWords, "listed vertices")) {
+        Dispatch d = dispatch(b - a);
+        d.source = &faceNormals;
+        d.destination = &normals;
+        d.tables[0] = window(vertexList, 4, a, b);
+        d.tables[1] = d.tables[2] = window(words, 4, kVertexWords * a, kVertexWords * b);
+        d.texelFormats[1] = d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
+        d.rowN = kVertexWords;
+        d.push.rowBase = std::uint32_t(a - d.tables[0].firstElement);
+        d.push.tableBase = std::uint32_t(kVertexWords * a - d.tables[1].firstElement);
+        d.push.groupBase = std::uint32_t(listedFaces);  // the zero element
+        d.push.groupCount = kVertexWords / 4;           // uvec4s per vertex
+        vertexStage.dispatches.push_back(d);
+    }
+    normalStages.push_back(std::move(faceStage));
+    normalStages.push_back(std::move(vertexStage));
     normalStages.push_back(std::move(runStage));
     tileNormals = true;
     return true;
