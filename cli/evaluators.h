@@ -1,6 +1,6 @@
 // The CLI's one choice of backend: makeEvaluator turns --backend into an Evaluator (the
 // contract of psub/evaluate.h); nothing after it branches on the backend. And the auto table
-// form of psub play and psub view (fasterForm).
+// form of psub play and psub view (autoTimesPerLevel, fasterForm).
 #pragma once
 
 #include "commands.h"
@@ -62,13 +62,24 @@ inline double quickFrameMs(Evaluator& evaluator, const std::vector<float>& contr
     return fastest;
 }
 
+// Auto builds and times the per-level candidates too (the full build), unless it runs on the CPU
+// at kTiledAloneFaces refined faces or more (and two steps or more): there it builds the tiled
+// form alone (its lean build, as --form tiled) and times only it. The per-level rows (the same
+// rows in the canonical order, or ordered by region) were slower there on every mesh measured,
+// on one thread and on two, by 1.3-4.6x (the tiled form's normals run in one pass over its walk
+// order), and building and timing them was most of the start: the cow at 7 steps (1.1M faces,
+// two threads) 1.69 s against 0.38 s forced tiled (bench/README.md, "Session 32").
+constexpr std::uint64_t kTiledAloneFaces = std::uint64_t(1) << 18;
+inline bool autoTimesPerLevel(Backend backend, std::uint64_t refinedFaces, int levels) {
+    return backend != Backend::Cpu || refinedFaces < kTiledAloneFaces || levels < 2;
+}
+
 // The auto table form, by a quick timing (quickFrameMs: positions and normals, on `backend`) of
 // each candidate on `control`:
-// - the per-level rows;
-// - the tiled form of `r` (built with both forms). Without a tile it is the fallback's rows
-//   alone in walk order (docs/tiled.md), and it is timed only on Vulkan or where a CPU frame runs
-//   on several threads; on one CPU thread the order matters little and the per-level rows are
-//   kept untimed;
+// - the per-level rows (where `r` has them: autoTimesPerLevel);
+// - the tiled form of `r`; without a tile, the fallback's rows alone in walk order
+//   (docs/tiled.md) and its normals in one pass over that order, faster on one CPU thread too
+//   (the cow at 7 steps 91-105 fps against 51-53, the double torus 82 against 43);
 // - on the CPU when a frame runs on several threads, both with their rows ordered by region, one
 //   region per thread (orderLevelsByRegion, the tiled form's rows up to its level B;
 //   docs/design.md, "Threads and regions": faster where a thread reading another's fresh writes
@@ -88,28 +99,25 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
                       std::vector<float>& out) {
     FormChoice choice;
     const bool tiles = r.tiled.tileCount() > 0;
-    const int threads = backend == Backend::Cpu && r.perLevel.regions == 1 && r.perLevel.levels.size() > 1
-                            ? perLevelFrameThreads(r.perLevel)
-                            : 1;
-    // Without a tile, a mesh small enough for one CPU thread keeps the per-level rows: its order
-    // matters little there. On Vulkan it does (lavapipe, the cow at 7 steps: 24.7 fps per-level,
-    // 31.7-32.0 in walk order; bench/README.md, session 28), so both are timed.
-    if (!tiles && threads == 1 && backend == Backend::Cpu) {
-        choice.reason = "auto: no regular tiles";
-        return choice;
-    }
+    const bool perLevel = !r.perLevel.levels.empty() || r.tiled.rows.levels.empty();  // built (not the lean build)
+    const PerLevelTable& rows = perLevel ? r.perLevel : r.tiled.rows;
+    const int threads =
+        backend == Backend::Cpu && rows.regions == 1 && rows.levels.size() > 1 ? perLevelFrameThreads(rows) : 1;
     const std::string byRegions = " by " + std::to_string(threads) + " regions";
-    const double perLevelMs = quickFrameMs(*makeEvaluator(backend, tablesOf(r), TableForm::PerLevel, context), control, out);
-    double bestMs = perLevelMs;
-    std::string times = "rest pose with normals " + millis(perLevelMs) + " ms per-level";
+    double bestMs = INFINITY;
+    std::string times = "rest pose with normals ";
+    if (perLevel) {
+        bestMs = quickFrameMs(*makeEvaluator(backend, tablesOf(r), TableForm::PerLevel, context), control, out);
+        times += millis(bestMs) + " ms per-level, ";
+    }
     {
         std::unique_ptr<Evaluator> tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
         const double tiledMs = quickFrameMs(*tiled, control, out);
-        times += ", " + millis(tiledMs) + " ms tiled";
+        times += millis(tiledMs) + " ms tiled";
         if (tiledMs < bestMs) bestMs = tiledMs, choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
         if (tiles && threads > 1 && r.tiled.baseLevel > 1) {  // rows to order before level B
             std::unique_ptr<Evaluator> asRefined = std::move(choice.tiled);  // it reads r.tiled.rows
-            PerLevelTable rows = r.tiled.rows;
+            PerLevelTable refinedRows = r.tiled.rows;
             orderLevelsByRegion(r.tiled.rows, std::uint32_t(threads), r.tiled.baseLevel);
             tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
             const double regionMs = quickFrameMs(*tiled, control, out);
@@ -118,12 +126,12 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
                 bestMs = regionMs, choice.form = TableForm::Tiled, choice.tiled = std::move(tiled);
             } else {
                 tiled.reset();
-                r.tiled.rows = std::move(rows);
+                r.tiled.rows = std::move(refinedRows);
                 choice.tiled = std::move(asRefined);
             }
         }
     }
-    if (threads > 1) {
+    if (perLevel && threads > 1) {
         PerLevelTable regions = r.perLevel;
         orderLevelsByRegion(regions, std::uint32_t(threads));
         const EvaluatorTables tables{regions, r.factorized, r.surface, r.tiled};
@@ -131,6 +139,7 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
         times += ", " + millis(regionMs) + " ms per-level" + byRegions;
         if (regionMs < bestMs) choice.form = TableForm::PerLevel, choice.tiled.reset(), r.perLevel = std::move(regions);
     }
+    if (!perLevel) times += "; per-level untimed from " + std::to_string(kTiledAloneFaces) + " faces";
     choice.reason = tiles ? "auto: " + std::to_string(int(std::lround(100.0 * r.tiled.fallbackBegin /
                                                                         std::max(1u, r.tiled.refinedCount)))) +
                                 "% of the points tiled; " + times

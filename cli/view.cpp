@@ -158,9 +158,10 @@ int ccLevelsFor(int levels) { return levels / 2; }
 // ViewOptions::form.
 constexpr int kFormAuto = 0, kFormPerLevel = 1, kFormTiled = 2;
 
-// The P-S tables for `form`: both forms for auto (the choice is timed when they are adopted),
-// the tiled form alone (its lean build) when forced, else the per-level table.
-Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary, int form) {
+// The P-S tables for `form`: both forms for auto (the choice is timed when they are adopted)
+// unless it would not time the per-level rows (autoTimesPerLevel, on `backend`), the tiled form
+// alone (its lean build) then and when forced, else the per-level table.
+Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary, int form, Backend backend) {
     Built b;
     b.levels = levels, b.rules = rules, b.boundary = boundary, b.ccLevels = ccLevelsFor(levels);
     const Mesh& mesh = a.mesh;
@@ -175,7 +176,7 @@ Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary,
     RefineOptions options;
     options.levels = levels, options.rules = rules, options.boundary = boundary;
     options.tiled = form == kFormAuto || form == kFormTiled;
-    options.perLevel = form != kFormTiled;
+    options.perLevel = form != kFormTiled && (form != kFormAuto || autoTimesPerLevel(backend, finest.faces, levels));
     b.ps = refine(mesh, connectivity, options);
     b.ccStencils = std::make_unique<CatmarkStencils>(mesh.faces, b.ccLevels);
     b.cc = buildSurfaceTable(b.ccStencils->finestFaces());
@@ -400,7 +401,7 @@ void Viewer::startBuild() {
     if (pending.valid() || (wantedLevels == levels && wantedRules == rules && wantedBoundary == boundary)) return;
     notice = "building level " + std::to_string(wantedLevels) + "...";
     pending = std::async(std::launch::async, [this, l = wantedLevels, r = wantedRules, b = wantedBoundary] {
-        return buildTables(animated, l, r, b, o.form);
+        return buildTables(animated, l, r, b, o.form, o.backend);
     });
 }
 
@@ -905,7 +906,7 @@ int view(const ViewOptions& o, Animated& animated, const std::vector<ScriptEvent
     glfwSetCursorPosCallback(window, onCursor);
     glfwSetScrollCallback(window, onScroll);
     // The first tables are built here, before the loop (later ones off it).
-    Built first = buildTables(animated, o.levels, o.rules, o.boundary, o.form);
+    Built first = buildTables(animated, o.levels, o.rules, o.boundary, o.form, o.backend);
     if (!first.error.empty()) throw InputError(o.input + ": --levels " + first.error);
     v.adopt(std::move(first));
     if (v.framesInFlight > 1) v.drawThread = std::make_unique<DrawThread>([&v](Slot& slot) { v.draw(slot); });
@@ -960,7 +961,8 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
     static const std::map<std::string, int> forms = {{"auto", kFormAuto}, {"per-level", kFormPerLevel}, {"tiled", kFormTiled}};
     addChoice(vi, "--form", o.form, forms,
               "P-S table form: auto (as psub play: the fastest of a quick timing at each level built: the "
-              "per-level rows, the tiled form, on several CPU threads the rows ordered by region), per-level or tiled",
+              "per-level rows, the tiled form, on several CPU threads the rows ordered by region; on the CPU "
+              "from 262144 refined faces the tiled form alone), per-level or tiled",
               "auto");
     addChoice(vi, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (b toggles)", "paper");
     addChoice(vi, "--wireframe", o.wireframe, wireframes, "none, refined or control (w cycles)", "none");

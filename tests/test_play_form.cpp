@@ -124,12 +124,37 @@ TEST(PlayForm, VulkanAutoTimesTheWalkOrderWithoutTiles) {
     EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
 }
 
-// Without a tile, on a mesh small enough for one thread, auto keeps the per-level rows untimed
-// (on the CPU).
-TEST(PlayForm, AutoKeepsThePerLevelRowsWithoutTiles) {
-    const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --levels 3 --frames 2");
+// Without a tile, on a mesh small enough for one thread, auto times both forms on the CPU too
+// (the tiled one's normals run in one pass over its walk order); whichever wins plays the
+// oracle's frames.
+TEST(PlayForm, AutoTimesBothFormsWithoutTilesOnOneThread) {
+    const Outcome run = psub("play '" + psub::test::dataPath("cube.obj") + "' --levels 3 --frames 2 --verify");
     EXPECT_EQ(run.status, 0) << run.err;
-    EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles)")) << run.out;
+    EXPECT_TRUE(contains(run.out, "Table form: per-level (auto: no regular tiles; rest pose with normals ") ||
+                contains(run.out, "Table form: tiled (auto: no regular tiles; rest pose with normals "))
+        << run.out;
+    EXPECT_TRUE(contains(run.out, " ms per-level, ") && contains(run.out, " ms tiled)")) << run.out;
+    EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
+}
+
+// From 2^18 refined faces on the CPU, auto builds and times the tiled form alone (its lean
+// build), on one thread and on two: the cow at 5 steps (278,592 faces, no tile) plays it and the
+// oracle's frames, and the summary says the per-level rows went untimed.
+TEST(PlayForm, AutoTimesTheTiledFormAloneFromTwoToTheEighteenFaces) {
+    for (const char* threads : {"1", "2"}) {
+        ::setenv("OMP_NUM_THREADS", threads, 1);
+        const Outcome run = psub("play '" + psub::test::dataPath("cow.obj") + "' --levels 5 --frames 2 --anim twist --verify");
+        ::unsetenv("OMP_NUM_THREADS");
+        EXPECT_EQ(run.status, 0) << run.err;
+        EXPECT_TRUE(contains(run.out, "Table form: tiled (auto: no regular tiles; rest pose with normals ")) << run.out;
+        EXPECT_TRUE(contains(run.out, " ms tiled; per-level untimed from 262144 faces)")) << run.out;
+        EXPECT_FALSE(contains(run.out, "ms per-level")) << run.out;
+        EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
+    }
+    // Below it (the cow at 4 steps, 69,648 faces), both are timed.
+    const Outcome below = psub("play '" + psub::test::dataPath("cow.obj") + "' --levels 4 --frames 1");
+    EXPECT_EQ(below.status, 0) << below.err;
+    EXPECT_TRUE(contains(below.out, " ms per-level, ") && contains(below.out, " ms tiled")) << below.out;
 }
 
 // On several CPU threads auto also times the per-level rows ordered by region (one region per
