@@ -58,10 +58,10 @@
 //   rowCount           rows in this dispatch; invocations beyond it return at once
 //                      (tile kernel: blocks, one workgroup each)
 //   rowBase            the first row's element number in the output (CSR kernels)
-//   groupBase          level kernel: this dispatch's group record in the TABLE_A window;
+//   groupBase          level kernel: this dispatch's first group record in the TABLE_A window;
 //                      vertex normals, fixed layout: the input element that holds zero;
 //                      tile kernel: the double steps t
-//   groupCount         level kernel: 1 (one group per dispatch); vertex normals, fixed
+//   groupCount         level kernel: its group records (groups of any shape when more than 1); vertex normals, fixed
 //                      layout: uvec4s of words per vertex (2); tile kernel: the halo
 //   tableBase          CSR kernels: first offset in the TABLE_A window; face normals of
 //                      quads and vertex normals of the fixed layout: first word of the
@@ -80,11 +80,13 @@
     uint destinationWindowSize;                                                                \
     uint pad;
 
-// One row group of the per-level table as seen by one dispatch (std430, 32 bytes): row r of
-// the dispatch (rowBegin is 0) has its words from indexBegin + r * stride (relative to the
-// TABLE_C window; stride = 1 + n + m + 1 rounded up to a multiple of 4): 1 + n + m source
-// indices (the centre, n edge neighbours, m diagonals, with these weights), then its
-// destination.
+// One row group of the per-level table as seen by one dispatch (std430, 32 bytes): the
+// group's rows are the dispatch's rows [rowBegin, rowBegin + rowCount) (rowBegin 0 in a dispatch
+// of one group; in a dispatch of several, pc.groupCount records from pc.groupBase, each group's
+// first row a multiple of the workgroup size). The group's row r has its words from indexBegin +
+// r * stride (relative to the TABLE_C window; stride = 1 + n + m + 1 rounded up to a multiple of
+// 4): 1 + n + m source indices (the centre, n edge neighbours, m diagonals, with these weights),
+// then its destination.
 #define PSUB_GROUP_RECORD_MEMBERS                                                               \
     uint rowBegin;                                                                             \
     uint indexBegin;                                                                           \
@@ -93,7 +95,7 @@
     float centre;                                                                              \
     float edge;                                                                                \
     float diagonal;                                                                            \
-    uint pad;
+    uint rowCount;
 
 // The tile kernels: tile.comp, one workgroup computes a block of at most PSUB_TILE_BLOCK x
 // PSUB_TILE_BLOCK lattice intervals of one tile, in workgroup-shared grids of at most

@@ -1,10 +1,11 @@
 #version 450
-// shaders/level.comp: one row group of one level of the per-level, kind-coded stencil table
-// (one dispatch per group, or per chunk of a group too large for one binding). The group's
-// record gives the shape (n edge neighbours, m diagonals), the three weights and where its rows
-// start; row r's words are its 1 + n + m source indices, then its destination, padded to a
-// multiple of 4 (one uvec4 fetch per 4 words). The common shapes are compiled in
-// (PSUB_SPEC_ROW_N/M): their loops unroll and the words are fetched up front. Same arithmetic,
+// shaders/level.comp: row groups of one level of the per-level, kind-coded stencil table (a
+// dispatch per large group, or per chunk of one too large for one binding; the small groups of a
+// level's stage together, their records in turn). A group's record gives the shape (n edge
+// neighbours, m diagonals), the three weights and where its rows start; row r's words are its
+// 1 + n + m source indices, then its destination, padded to a multiple of 4 (one uvec4 fetch per
+// 4 words). The common shapes are compiled in for a dispatch of one group (PSUB_SPEC_ROW_N/M):
+// their loops unroll and the words are fetched up front. Same arithmetic,
 // in the same order, as the CPU kernel (psub/evaluator.h), with no contraction into fused
 // multiply-adds. A VertexFromFacePoints group's sources are points of the level it writes (its
 // dispatch binds that level as the source too, after a barrier: docs/design.md).
@@ -29,8 +30,9 @@ GroupRecord groupAt(uint i) {
     if (!kTexels) return groups[i];
     return GroupRecord(groupWord(i, 0u), groupWord(i, 1u), groupWord(i, 2u), groupWord(i, 3u),
                        uintBitsToFloat(groupWord(i, 4u)), uintBitsToFloat(groupWord(i, 5u)),
-                       uintBitsToFloat(groupWord(i, 6u)), 0u);
+                       uintBitsToFloat(groupWord(i, 6u)), groupWord(i, 7u));
 }
+uint groupRowBegin(uint i) { return kTexels ? groupWord(i, 0u) : groups[i].rowBegin; }
 
 // Word j of the row whose words start at `base` (a multiple of 4); `q` holds the row's words
 // when the shape is compiled in.
@@ -41,9 +43,14 @@ uint rowWord(uvec4 q[3], uint base, uint j, uint count) {
 }
 
 void main() {
-    const uint row = rowIndex();
+    uint row = rowIndex();
     if (row >= pc.rowCount) return;
-    const GroupRecord g = groupAt(pc.groupBase);
+    // Several groups (their shape not compiled in): the last whose first row is this one or before.
+    uint record = pc.groupBase;
+    for (uint k = 1u; k < pc.groupCount && groupRowBegin(pc.groupBase + k) <= row; ++k) record = pc.groupBase + k;
+    const GroupRecord g = groupAt(record);
+    row -= g.rowBegin;
+    if (row >= g.rowCount) return;  // past the group's rows, before the next's
     const uint n = kFixedShape ? kRowN : g.n, m = kFixedShape ? kRowM : g.m;
     const uint count = 1u + n + m;  // sources; the destination is word `count`
     const uint stride = kFixedShape ? kFixedStride : (count + 4u) & ~3u;

@@ -124,48 +124,81 @@ bool specialisedShape(std::uint32_t n, std::uint32_t m) {
 void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& uploader) {
     // The device's copy of the table: each row's 1 + n + m source indices, then its
     // destination, padded to a multiple of 4 words (fetched as uvec4: one fetch per 4 words).
-    // One dispatch per group (per chunk of a group too large for one binding): the group's
-    // record gives the weights and where its rows start; its shape picks the pipeline.
-    std::uint64_t wordCount = 0;
-    std::vector<GroupRecord> records;
+    // A group of kMergedRows rows or more runs as dispatches of its own (one per chunk that fits
+    // a binding), its record giving the weights and where its rows start, its shape picking the
+    // pipeline. The smaller groups of a level's stage run together, in as few dispatches of any
+    // shape as their words' windows allow: each group's rows from a multiple of the workgroup
+    // size of the dispatch, found from the records' first rows (level.comp). The cow at 7 steps
+    // has ten such groups a level (its extraordinary vertices by valence, 1 to 5807 rows): 93
+    // dispatches a frame before, 23 now, a barrier after each.
+    constexpr std::uint64_t kMergedRows = 1 << 14;
+    struct Part {
+        const RowGroup* group;
+        std::uint64_t a, b;  // its rows [a, b)
+    };
     struct Pending {
         std::size_t level;
-        Dispatch dispatch;
-        std::uint64_t record, wordBegin, wordEnd;
-        bool readsChild;  // a VertexFromFacePoints group: reads the level it writes
+        bool readsChild;  // VertexFromFacePoints groups: read the level they write
+        std::vector<Part> parts;
     };
+    const auto strideOf = [](const RowGroup& g) { return (std::uint64_t(g.width) + 4) / 4 * 4; };
+    const auto padded = [](std::uint64_t rows) { return (rows + PSUB_WORKGROUP_SIZE - 1) / PSUB_WORKGROUP_SIZE * PSUB_WORKGROUP_SIZE; };
     std::vector<Pending> pending;
     for (std::size_t k = 0; k < table.levels.size(); ++k) {
         const StencilLevel& level = table.levels[k];
-        for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
-            const RowGroup& g = table.groups[gi];
-            if (g.rowCount == 0) continue;
-            const std::uint64_t stride = (std::uint64_t(g.width) + 4) / 4 * 4;
-            const std::uint64_t groupWords = wordCount;
-            wordCount += g.rowCount * stride;
-            const auto chunks = split(
-                g.rowCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * stride * (b - a)); }, "per-level table");
-            for (const auto& [a, b] : chunks) {
-                Pending p{k, dispatch(b - a), records.size(), groupWords + a * stride, groupWords + b * stride,
-                          g.kind == RowKind::VertexFromFacePoints};
-                p.dispatch.rowN = specialisedShape(g.n, g.m) ? g.n : kAnyShape;
-                p.dispatch.rowM = specialisedShape(g.n, g.m) ? g.m : kAnyShape;
-                const std::uint64_t wordFirst = p.wordBegin * 4 / alignment * alignment / 4;
-                records.push_back({0, std::uint32_t(p.wordBegin - wordFirst), g.n, g.m, float(g.centre), float(g.edge),
-                                   float(g.diagonal), 0});
-                pending.push_back(p);
+        for (const bool readsChild : {false, true}) {
+            Pending merged{k, readsChild, {}};
+            std::uint64_t mergedWords = 0, mergedRows = 0;
+            for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
+                const RowGroup& g = table.groups[gi];
+                if (g.rowCount == 0 || (g.kind == RowKind::VertexFromFacePoints) != readsChild) continue;
+                const std::uint64_t stride = strideOf(g), words = g.rowCount * stride;
+                const bool alone = !fits(4 * words) || padded(g.rowCount) > maxRows;
+                if (g.rowCount < kMergedRows && !alone) {
+                    if (!fits(4 * (mergedWords + words)) || mergedRows + padded(g.rowCount) > maxRows) {
+                        pending.push_back(std::move(merged));
+                        merged = {k, readsChild, {}}, mergedWords = 0, mergedRows = 0;
+                    }
+                    merged.parts.push_back({&g, 0, g.rowCount});
+                    mergedWords += words, mergedRows += padded(g.rowCount);
+                    continue;
+                }
+                for (const auto& [a, b] : split(
+                         g.rowCount, [&](std::uint64_t x, std::uint64_t y) { return fits(4 * stride * (y - x)); },
+                         "per-level table"))
+                    pending.push_back({k, readsChild, {{&g, a, b}}});
             }
+            if (!merged.parts.empty()) pending.push_back(std::move(merged));
         }
     }
+    // The words and records in the order of the dispatches (a dispatch's contiguous).
+    std::vector<GroupRecord> records;
+    std::vector<std::uint64_t> firstRecord, firstWord;
+    std::uint64_t wordCount = 0;
+    for (const Pending& p : pending) {
+        firstRecord.push_back(records.size());
+        firstWord.push_back(wordCount);
+        const std::uint64_t wordFirst = wordCount * 4 / alignment * alignment / 4;  // the window's start
+        std::uint32_t row = 0;
+        for (const Part& part : p.parts) {
+            const RowGroup& g = *part.group;
+            records.push_back({row, std::uint32_t(wordCount - wordFirst), g.n, g.m, float(g.centre), float(g.edge),
+                               float(g.diagonal), std::uint32_t(part.b - part.a)});
+            wordCount += (part.b - part.a) * strideOf(g);
+            row += std::uint32_t(p.parts.size() > 1 ? padded(part.b - part.a) : part.b - part.a);
+        }
+    }
+    firstRecord.push_back(records.size());
+    firstWord.push_back(wordCount);
     const Buffer groups = uploader.upload(records, tables);
     const Buffer rows = uploader.uploadFilled<std::uint32_t>(
         wordCount,
         [&](std::uint32_t* words) {
-            for (const StencilLevel& level : table.levels)
-                for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
-                    const RowGroup& g = table.groups[gi];
-                    const std::uint64_t stride = (std::uint64_t(g.width) + 4) / 4 * 4;
-                    for (std::uint64_t r = 0; r < g.rowCount; ++r, words += stride) {
+            for (const Pending& p : pending)
+                for (const Part& part : p.parts) {
+                    const RowGroup& g = *part.group;
+                    const std::uint64_t stride = strideOf(g);
+                    for (std::uint64_t r = part.a; r < part.b; ++r, words += stride) {
                         const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
                         std::copy(ix, ix + g.width, words);
                         words[g.width] = table.destinations[g.rowBegin + r];
@@ -183,17 +216,23 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             stage.kernel = Kernel::Level;
             stage.specialization = {width, from.stride, levels[k + 1].stride, from.windows > 1, levels[k + 1].windows > 1};
             stage.written = &levels[k + 1];
-            for (Pending& p : pending) {
+            for (std::size_t i = 0; i < pending.size(); ++i) {
+                const Pending& p = pending[i];
                 if (p.level != k || p.readsChild != readsChild) continue;
-                Dispatch& d = p.dispatch;
+                const RowGroup& g = *p.parts.front().group;
+                const GroupRecord& last = records[firstRecord[i + 1] - 1];
+                Dispatch d = dispatch(last.rowBegin + last.rowCount);
+                const bool shaped = p.parts.size() == 1 && specialisedShape(g.n, g.m);
+                d.rowN = shaped ? g.n : kAnyShape;
+                d.rowM = shaped ? g.m : kAnyShape;
                 d.source = &from;
                 d.destination = &levels[k + 1];
-                d.tables[0] = window(groups, sizeof(GroupRecord), p.record, p.record + 1);
-                d.tables[1] = window(rows, 4, p.wordBegin, p.wordEnd);
+                d.tables[0] = window(groups, sizeof(GroupRecord), firstRecord[i], firstRecord[i + 1]);
+                d.tables[1] = window(rows, 4, firstWord[i], firstWord[i + 1]);
                 d.tables[2] = d.tables[1];
                 d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
-                d.push.groupBase = std::uint32_t(p.record - d.tables[0].firstElement);
-                d.push.groupCount = 1;
+                d.push.groupBase = std::uint32_t(firstRecord[i] - d.tables[0].firstElement);
+                d.push.groupCount = std::uint32_t(p.parts.size());
                 d.push.sourceWindowSize = from.windowSize;
                 d.push.destinationWindowSize = levels[k + 1].windowSize;
                 stage.dispatches.push_back(d);

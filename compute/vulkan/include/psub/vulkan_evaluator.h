@@ -2,7 +2,7 @@
 // tables in, the same numbers out (float, within rounding), on any Vulkan 1.1 device with a
 // compute queue, lavapipe (VK_PHYSICAL_DEVICE_TYPE_CPU) included. Tables are uploaded once;
 // a frame writes the control points through a persistently mapped buffer, runs one command
-// buffer (upload barrier, one dispatch per level, normals, fence) and reads back only what
+// buffer (upload barrier, a few dispatches per level, normals, fence) and reads back only what
 // was asked for. Link psub::vulkan; a CPU-only program never needs Vulkan. No Vulkan types
 // here: a caller that brings its own device and buffers includes psub/vulkan_interop.h.
 // It is the Vulkan backend of the evaluator contract (psub/evaluate.h).
