@@ -2,7 +2,7 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run.
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair|normals]
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair|normals|context]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
 // "build", only the builds, ROUNDS times each in one process with psub's allocator settings
 // (the per-level table with its surface; the tiled form's lean build), for perf, and with
@@ -10,7 +10,9 @@
 // the per-level rows of one mesh on 1 thread, of two copies side by side on 2 threads, and of
 // one mesh on 2 threads (what a second thread is worth to one mesh, and to two), then the
 // region-ordered copy of the table (orderLevelsByRegion) on 1 and 2 threads; with "normals", on
-// 2 threads, the tiled form's frame without and with normals, and the per-level form's normals().
+// 2 threads, the tiled form's frame without and with normals, and the per-level form's normals();
+// with "context", on 2 threads, the tiled form's frame back to back, after a frame with normals
+// and after 256 MB written (what the caches hold between frames).
 #include "detail.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -51,7 +53,7 @@ double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control
 
 int main(int argc, char** argv) {
     if (argc < 3) {
-        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|build-lean|pair]\n");
+        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|build-lean|pair|normals|context]\n");
         return 2;
     }
     const std::string model = argv[1];
@@ -187,6 +189,39 @@ int main(int argc, char** argv) {
                         "one mesh on 2 threads %.3f ms; region-ordered, 1 thread %.3f ms, 2 threads %.3f ms; "
                         "tiled, 2 threads %.3f ms, region-ordered up to level B %.3f ms\n",
                         single, sideBySide, shared, regionSingle, regionShared, tiledShared, tiledRegionShared);
+        }
+        return 0;
+    }
+    if (mode == "context") {
+        // The tiled form's positions on 2 threads in three states of the caches: frames back to
+        // back (as the other modes and psub bench time them); each after a frame with normals (as
+        // psub play runs them: the normals pass's bytes between two evaluations); each after 256 MB
+        // written by both threads (nothing of the frame's left in any cache).
+        psub::CpuEvaluator<float> tiledEvaluator(tiled, 3, 2);
+        std::vector<float> normals(out.size());
+        std::vector<char> junk(std::size_t(256) << 20, 1);
+        const auto ms = [&] {
+            const auto start = std::chrono::steady_clock::now();
+            tiledEvaluator.evaluate(control, out);
+            return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        };
+        for (int round = 0; round < rounds; ++round) {
+            std::vector<double> warm, afterNormals, cold;
+            for (int f = 0; f < frames; ++f) warm.push_back(ms());
+            for (int f = 0; f < frames; ++f) {
+                tiledEvaluator.evaluate(control, out, normals);
+                afterNormals.push_back(ms());
+            }
+            for (int f = 0; f < frames; ++f) {
+#pragma omp parallel for num_threads(2)
+                for (int half = 0; half < 2; ++half)
+                    std::fill(junk.begin() + std::ptrdiff_t(half * junk.size() / 2),
+                              junk.begin() + std::ptrdiff_t((half + 1) * junk.size() / 2), char(f));
+                cold.push_back(ms());
+            }
+            std::printf("tiled, 2 threads: back to back %.3f ms, after a frame with normals %.3f ms, after 256 MB "
+                        "written %.3f ms (medians)\n",
+                        median(warm), median(afterNormals), median(cold));
         }
         return 0;
     }
