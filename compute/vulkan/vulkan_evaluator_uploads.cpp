@@ -130,7 +130,7 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
     // shape as their words' windows allow: each group's rows from a multiple of the workgroup
     // size of the dispatch, found from the records' first rows (level.comp). The cow at 7 steps
     // has ten such groups a level (its extraordinary vertices by valence, 1 to 5807 rows): 93
-    // dispatches a frame before, 23 now, a barrier after each.
+    // dispatches a frame before, 21 now, a barrier after each.
     constexpr std::uint64_t kMergedRows = 1 << 14;
     struct Part {
         const RowGroup* group;
