@@ -61,8 +61,9 @@
 //   groupBase          level kernel: this dispatch's first group record in the TABLE_A window;
 //                      vertex normals, fixed layout: the input element that holds zero;
 //                      tile kernel: the double steps t
-//   groupCount         level kernel: its group records (groups of any shape when more than 1); vertex normals, fixed
-//                      layout: uvec4s of words per vertex (2); tile kernel: the halo
+//   groupCount         level kernel: its group records (more than 1: groups of any shape);
+//                      vertex normals, fixed layout: uvec4s of words per vertex (2); tile
+//                      kernel: the halo
 //   tableBase          CSR kernels: first offset in the TABLE_A window; face normals of
 //                      quads and vertex normals of the fixed layout: first word of the
 //                      dispatch in the TABLE_B window (a multiple of 4); tile kernel: the
