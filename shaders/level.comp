@@ -45,15 +45,17 @@ uint rowWord(uvec4 q[3], uint base, uint j, uint count) {
 void main() {
     uint row = rowIndex();
     if (row >= pc.rowCount) return;
-    // Several groups (never with the shape compiled in): the last whose first row is this one or
-    // before. A dispatch of one group reads neither field (two fetches a row fewer: on lavapipe
-    // the torus's per-level frame at 1M faces was 20% slower with them).
+    // A dispatch of one group has its record in the push constants: its rows read none (on
+    // lavapipe every read of one is a gather; the torus's per-level frame at 1M faces was 20%
+    // slower with two more a row). Several groups (never with the shape compiled in): the last
+    // whose first row is this one or before.
     const bool several = !kFixedShape && pc.groupCount > 1u;
-    uint record = pc.groupBase;
-    if (several)
-        for (uint k = 1u; k < pc.groupCount && groupRowBegin(pc.groupBase + k) <= row; ++k) record = pc.groupBase + k;
-    const GroupRecord g = groupAt(record);
+    GroupRecord g = GroupRecord(0u, pc.groupIndexBegin, pc.groupN, pc.groupM, pc.groupCentre,
+                                pc.groupEdge, pc.groupDiagonal, pc.rowCount);
     if (several) {
+        uint record = pc.groupBase;
+        for (uint k = 1u; k < pc.groupCount && groupRowBegin(pc.groupBase + k) <= row; ++k) record = pc.groupBase + k;
+        g = groupAt(record);
         row -= g.rowBegin;
         if (row >= g.rowCount) return;  // past the group's rows, before the next's
     }

@@ -28,7 +28,7 @@ struct GroupRecord {
 struct TileRecord {
     PSUB_TILE_RECORD_MEMBERS
 };
-static_assert(sizeof(PushConstants) == 32 && sizeof(GroupRecord) == 32 && sizeof(TileRecord) == 32);
+static_assert(sizeof(PushConstants) == 52 && sizeof(GroupRecord) == 32 && sizeof(TileRecord) == 32);
 
 enum class Kernel { Level, Factorized, FaceNormals, VertexNormals, Tile, TileUnrolled, TileNormals };
 inline constexpr int kKernelCount = 7;

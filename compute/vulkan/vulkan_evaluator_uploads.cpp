@@ -233,6 +233,10 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
                 d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
                 d.push.groupBase = std::uint32_t(firstRecord[i] - d.tables[0].firstElement);
                 d.push.groupCount = std::uint32_t(p.parts.size());
+                const GroupRecord& first = records[firstRecord[i]];  // one group's, read from here
+                d.push.groupN = first.n, d.push.groupM = first.m;
+                d.push.groupIndexBegin = first.indexBegin;
+                d.push.groupCentre = first.centre, d.push.groupEdge = first.edge, d.push.groupDiagonal = first.diagonal;
                 d.push.sourceWindowSize = from.windowSize;
                 d.push.destinationWindowSize = levels[k + 1].windowSize;
                 stage.dispatches.push_back(d);
