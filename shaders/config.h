@@ -53,6 +53,9 @@
                                        // written to PSUB_BINDING_DESTINATION + 1 (the positions in one
                                        // window), the last fine grid kept at this side (block side + 3)
 #define PSUB_SPEC_TILE_THREADS 12      // tile.comp: its workgroup's invocations (512 for blocks of 32, 256 for 16, unless asked)
+#define PSUB_SPEC_IMPLICIT_DESTINATION 13  // level kernel: row r writes element pc.rowBase + r (its
+                                           // group's destinations consecutive), its words the
+                                           // sources alone
 
 // Push constants, per dispatch (all 32-bit; 52 bytes, under the 128 every device has).
 //   rowCount           rows in this dispatch; invocations beyond it return at once

@@ -17,8 +17,12 @@ struct GroupRecord { PSUB_GROUP_RECORD_MEMBERS };
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kRowN = 0xffffffffu;
 layout(constant_id = PSUB_SPEC_ROW_M) const uint kRowM = 0xffffffffu;
 const bool kFixedShape = kRowN != 0xffffffffu && kRowM != 0xffffffffu;
+// A dispatch of one group whose destinations are consecutive: row r writes element pc.rowBase +
+// r, and its words are its sources alone (a quad's face point: one uvec4 fetch, 16 bytes, not 32).
+layout(constant_id = PSUB_SPEC_IMPLICIT_DESTINATION) const bool kImplicitDestination = false;
+const uint kDestinationWords = kImplicitDestination ? 0u : 1u;
 // Words per row of a compiled-in shape, and its uvec4 count (at most 3: valence 4).
-const uint kFixedStride = kFixedShape ? ((2u + kRowN + kRowM + 3u) & ~3u) : 4u;
+const uint kFixedStride = kFixedShape ? ((1u + kDestinationWords + kRowN + kRowM + 3u) & ~3u) : 4u;
 
 layout(std430, binding = PSUB_BINDING_TABLE_A) readonly buffer Groups { GroupRecord groups[]; };
 // TABLE_B and TABLE_C bind the same window of row words (storage-buffer path).
@@ -60,18 +64,19 @@ void main() {
         if (row >= g.rowCount) return;  // past the group's rows, before the next's
     }
     const uint n = kFixedShape ? kRowN : g.n, m = kFixedShape ? kRowM : g.m;
-    const uint count = 1u + n + m;  // sources; the destination is word `count`
-    const uint stride = kFixedShape ? kFixedStride : (count + 4u) & ~3u;
+    const uint count = 1u + n + m;  // sources; the destination is word `count` (unless implicit)
+    const uint stride = kFixedShape ? kFixedStride : (count + kDestinationWords + 3u) & ~3u;
     const uint base = g.indexBegin + row * stride;
     uvec4 q[3];
     if (kTexels && kFixedShape)
         for (uint k = 0u; k < 3u; ++k) q[k] = 4u * k < kFixedStride ? texelFetch(tableTexelsC, int(base / 4u + k)) : uvec4(0u);
+    const uint destination = kImplicitDestination ? pc.rowBase + row : rowWord(q, base, count, count);
     if (kComponents <= 4u) {  // one vec4 per source
         precise vec4 centre = g.centre * readElement(rowWord(q, base, 0u, count)), edges = vec4(0.0), diagonals = vec4(0.0);
         for (uint j = 1u; j <= n; ++j) edges += readElement(rowWord(q, base, j, count));
         for (uint j = 1u + n; j <= n + m; ++j) diagonals += readElement(rowWord(q, base, j, count));
         precise vec4 value = centre + g.edge * edges + g.diagonal * diagonals;
-        writeElement(rowWord(q, base, count, count), value);
+        writeElement(destination, value);
         return;
     }
     precise float centre[kComponents], edges[kComponents], diagonals[kComponents];
@@ -89,7 +94,7 @@ void main() {
         const Place p = sourcePlace(rowWord(q, base, j, count));
         for (uint i = 0u; i < kComponents; ++i) diagonals[i] += readSource(p, i);
     }
-    const Place target = destinationPlace(rowWord(q, base, count, count));
+    const Place target = destinationPlace(destination);
     for (uint i = 0u; i < kComponents; ++i) {
         precise float value = centre[i] + g.edge * edges[i] + g.diagonal * diagonals[i];
         writeDestination(target, i, value);

@@ -109,23 +109,24 @@ void Pipelines::release() {
 
 VkPipeline Pipelines::get(Kernel kernel, const Specialization& s) {
     const auto [components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN, rowM,
-                tileSteps, listed, tileGrid, tileKeptSide, tileThreads] = s.key();
+                tileSteps, listed, tileGrid, tileKeptSide, tileThreads, implicitDestination] = s.key();
     const auto key = std::tuple(int(kernel), components, sourceStride, destinationStride, sourceWindowed,
                                 destinationWindowed, texels, rowN, rowM, tileSteps, listed, tileGrid, tileKeptSide,
-                                tileThreads);
+                                tileThreads, implicitDestination);
     std::lock_guard guard(lock_);
     if (auto found = pipelines_.find(key); found != pipelines_.end()) return found->second;
 
-    constexpr std::uint32_t count = 13;
+    constexpr std::uint32_t count = 14;
     const std::uint32_t values[count] = {components,      sourceStride, destinationStride, VkBool32(sourceWindowed),
                                          VkBool32(destinationWindowed), VkBool32(texels), rowN, rowM, tileSteps,
-                                         VkBool32(listed), tileGrid, tileKeptSide, tileThreads};
+                                         VkBool32(listed), tileGrid, tileKeptSide, tileThreads,
+                                         VkBool32(implicitDestination)};
     VkSpecializationMapEntry entries[count];
     const std::uint32_t ids[count] = {PSUB_SPEC_COMPONENTS,      PSUB_SPEC_SOURCE_STRIDE,        PSUB_SPEC_DESTINATION_STRIDE,
                                       PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED, PSUB_SPEC_TEXELS,
                                       PSUB_SPEC_ROW_N,           PSUB_SPEC_ROW_M,                PSUB_SPEC_TILE_STEPS,
                                       PSUB_SPEC_LISTED,          PSUB_SPEC_TILE_GRID,            PSUB_SPEC_TILE_NORMALS,
-                                      PSUB_SPEC_TILE_THREADS};
+                                      PSUB_SPEC_TILE_THREADS,    PSUB_SPEC_IMPLICIT_DESTINATION};
     for (std::uint32_t i = 0; i < count; ++i) entries[i] = {ids[i], 4 * i, 4};
     VkSpecializationInfo specialization{count, entries, sizeof values, values};
     VkComputePipelineCreateInfo info{};

@@ -43,10 +43,11 @@ struct Specialization {
     uint tileGrid = PSUB_TILE_GRID;  // workgroup tile kernel: its shared grids' side
     uint tileKeptSide = 0;           // workgroup tile kernel: non-zero, also the inner points' normals
     uint tileThreads = PSUB_WORKGROUP_SIZE;  // workgroup tile kernel: its workgroup's invocations
+    bool implicitDestination = false;        // level kernel: row r writes element rowBase + r
 
     auto key() const {
         return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN,
-                          rowM, tileSteps, listed, tileGrid, tileKeptSide, tileThreads);
+                          rowM, tileSteps, listed, tileGrid, tileKeptSide, tileThreads, implicitDestination);
     }
 };
 
@@ -71,7 +72,7 @@ private:
     VkPipelineCache cache_ = VK_NULL_HANDLE;
     VkShaderModule modules_[kKernelCount] = {};
     std::mutex lock_;
-    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint, bool, uint, uint, uint>, VkPipeline> pipelines_;
+    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint, bool, uint, uint, uint, bool>, VkPipeline> pipelines_;
 };
 
 // The context's compute pipelines, made on first use (thread-safe) and kept with the context.

@@ -34,10 +34,13 @@ void VulkanEvaluator::Impl::runStages(VkCommandBuffer command, const std::vector
         if (stage.dispatches.empty() || !stage.runsIn(stencils, withNormals)) continue;
         for (std::size_t i = 0; i < stage.dispatches.size(); ++i) {
             const Dispatch& d = stage.dispatches[i];
-            if (i == 0 || d.rowN != stage.dispatches[i - 1].rowN || d.rowM != stage.dispatches[i - 1].rowM) {
+            const Dispatch* previous = i > 0 ? &stage.dispatches[i - 1] : nullptr;
+            if (!previous || d.rowN != previous->rowN || d.rowM != previous->rowM ||
+                d.implicitDestination != previous->implicitDestination) {
                 Specialization specialization = stage.specialization;
                 specialization.rowN = d.rowN;
                 specialization.rowM = d.rowM;
+                specialization.implicitDestination = d.implicitDestination;
                 vkCmdBindPipeline(command, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->get(stage.kernel, specialization));
             }
             // Chunks of one stage write disjoint rows but bind the same windows: order them too

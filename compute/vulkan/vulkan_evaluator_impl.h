@@ -65,6 +65,7 @@ struct Dispatch {
     PushConstants push{};
     std::uint32_t groupsX = 0, groupsY = 0;
     std::uint32_t rowN = kAnyShape, rowM = kAnyShape;  // level kernel: the rows' shape, when compiled in
+    bool implicitDestination = false;                  // level kernel: row r writes push.rowBase + r
     VkFormat texelFormats[3] = {VK_FORMAT_R32_UINT, VK_FORMAT_R32_UINT, VK_FORMAT_R32_UINT};  // table texel views
     // What the descriptor set binds (written once, at construction).
     const VertexBuffer* source = nullptr;

@@ -130,7 +130,10 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
     // shape as their words' windows allow: each group's rows from a multiple of the workgroup
     // size of the dispatch, found from the records' first rows (level.comp). The cow at 7 steps
     // has ten such groups a level (its extraordinary vertices by valence, 1 to 5807 rows): 93
-    // dispatches a frame before, 21 now, a barrier after each.
+    // dispatches a frame before, 21 now, a barrier after each. A dispatch of one group whose
+    // destinations are consecutive (a level's face points; in the tiled form's walk order, every
+    // group of its intermediate levels) writes row r at its first destination + r, its rows'
+    // words the sources alone (PSUB_SPEC_IMPLICIT_DESTINATION).
     constexpr std::uint64_t kMergedRows = 1 << 14;
     struct Part {
         const RowGroup* group;
@@ -140,8 +143,17 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
         std::size_t level;
         bool readsChild;  // VertexFromFacePoints groups: read the level they write
         std::vector<Part> parts;
+        bool implicitDestination = false;  // one part, its destinations consecutive
     };
-    const auto strideOf = [](const RowGroup& g) { return (std::uint64_t(g.width) + 4) / 4 * 4; };
+    const auto strideOf = [](const RowGroup& g, bool implicit = false) {
+        return (std::uint64_t(g.width) + (implicit ? 3 : 4)) / 4 * 4;
+    };
+    const auto consecutive = [&](const RowGroup& g, std::uint64_t a, std::uint64_t b) {
+        const std::uint32_t* d = table.destinations.data() + g.rowBegin;
+        for (std::uint64_t r = a + 1; r < b; ++r)
+            if (d[r] != d[a] + (r - a)) return false;
+        return true;
+    };
     const auto padded = [](std::uint64_t rows) { return (rows + PSUB_WORKGROUP_SIZE - 1) / PSUB_WORKGROUP_SIZE * PSUB_WORKGROUP_SIZE; };
     std::vector<Pending> pending;
     for (std::size_t k = 0; k < table.levels.size(); ++k) {
@@ -166,7 +178,7 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
                 for (const auto& [a, b] : split(
                          g.rowCount, [&](std::uint64_t x, std::uint64_t y) { return fits(4 * stride * (y - x)); },
                          "per-level table"))
-                    pending.push_back({k, readsChild, {{&g, a, b}}});
+                    pending.push_back({k, readsChild, {{&g, a, b}}, consecutive(g, a, b)});
             }
             if (!merged.parts.empty()) pending.push_back(std::move(merged));
         }
@@ -184,7 +196,7 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             const RowGroup& g = *part.group;
             records.push_back({row, std::uint32_t(wordCount - wordFirst), g.n, g.m, float(g.centre), float(g.edge),
                                float(g.diagonal), std::uint32_t(part.b - part.a)});
-            wordCount += (part.b - part.a) * strideOf(g);
+            wordCount += (part.b - part.a) * strideOf(g, p.implicitDestination);
             row += std::uint32_t(p.parts.size() > 1 ? padded(part.b - part.a) : part.b - part.a);
         }
     }
@@ -197,12 +209,12 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             for (const Pending& p : pending)
                 for (const Part& part : p.parts) {
                     const RowGroup& g = *part.group;
-                    const std::uint64_t stride = strideOf(g);
+                    const std::uint64_t stride = strideOf(g, p.implicitDestination);
                     for (std::uint64_t r = part.a; r < part.b; ++r, words += stride) {
                         const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
-                        std::copy(ix, ix + g.width, words);
-                        words[g.width] = table.destinations[g.rowBegin + r];
-                        std::fill(words + g.width + 1, words + stride, 0u);
+                        std::uint32_t* end = std::copy(ix, ix + g.width, words);
+                        if (!p.implicitDestination) *end++ = table.destinations[g.rowBegin + r];
+                        std::fill(end, words + stride, 0u);
                     }
                 }
         },
@@ -225,6 +237,8 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
                 const bool shaped = p.parts.size() == 1 && specialisedShape(g.n, g.m);
                 d.rowN = shaped ? g.n : kAnyShape;
                 d.rowM = shaped ? g.m : kAnyShape;
+                d.implicitDestination = p.implicitDestination;
+                if (p.implicitDestination) d.push.rowBase = table.destinations[g.rowBegin + p.parts.front().a];
                 d.source = &from;
                 d.destination = &levels[k + 1];
                 d.tables[0] = window(groups, sizeof(GroupRecord), firstRecord[i], firstRecord[i + 1]);
