@@ -14,12 +14,15 @@ uint offsetAt(uint i) { return kTexels ? texelFetch(tableTexelsA, int(i)).x : of
 uint entryAt(uint i) { return kTexels ? texelFetch(tableTexelsB, int(i)).x : faces[i]; }
 uint vertexAt(uint i) { return kTexels ? texelFetch(tableTexelsC, int(i)).x : vertices[i]; }
 
-// PSUB_SPEC_ROW_N = 8: every vertex is in at most 8 faces; vertex row's 8 words (its faces in
-// table order, then pc.groupBase: an element of the input that holds zero) sit at 8 row from
-// pc.tableBase (no offsets; pc.groupCount = 2 uvec4s). The first four are added unconditionally (adding +0 changes no
-// sum), the next four in a loop that lavapipe skips unless a lane of the SIMD group needs it.
+// PSUB_SPEC_ROW_N = 8 or 4: every vertex is in at most that many faces (or those in more are
+// written again after this pass); vertex row's kWords words (its faces in table order, then
+// pc.groupBase: an element of the input that holds zero) sit at kWords row from pc.tableBase (no
+// offsets; pc.groupCount = kWords / 4 uvec4s). The first four are added unconditionally (adding
+// +0 changes no sum), the next four in a loop that lavapipe skips unless a lane of the SIMD
+// group needs it.
 layout(constant_id = PSUB_SPEC_ROW_N) const uint kWords = 0xffffffffu;
-// PSUB_SPEC_LISTED: with kWords = 8, row r's sum is written at vertex offsets[pc.rowBase + r]
+const bool kFixedWords = kWords == 4u || kWords == 8u;
+// PSUB_SPEC_LISTED: with kFixedWords, row r's sum is written at vertex offsets[pc.rowBase + r]
 // (TABLE_A; its words at 8 r as ever: the tiled form's vertices that its tile normals pass
 // leaves, their words in a table of their own); with CSR rows, at vertex vertices[pc.rowBase + r]
 // (TABLE_C: the vertices in more faces than the fixed layout holds).
@@ -34,17 +37,17 @@ void main() {
     const uint row = rowIndex();
     if (row >= pc.rowCount) return;
     precise vec3 n = vec3(0.0);
-    const uint vertex = !kListed     ? pc.rowBase + row
-                        : kWords == 8u ? offsetAt(pc.rowBase + row)
-                                       : vertexAt(pc.rowBase + row);
-    if (kWords == 8u) {
-        const uint base = (pc.tableBase + 8u * row) / 4u;
+    const uint vertex = !kListed    ? pc.rowBase + row
+                        : kFixedWords ? offsetAt(pc.rowBase + row)
+                                      : vertexAt(pc.rowBase + row);
+    if (kFixedWords) {
+        const uint base = (pc.tableBase + kWords * row) / 4u;
         const uvec4 q = vertexWords(base);
         n += readElement(q.x).xyz;
         n += readElement(q.y).xyz;
         n += readElement(q.z).xyz;
         n += readElement(q.w).xyz;
-        // pc.groupCount (2) uvec4 per vertex: a bound the compiler cannot see, so that it keeps
+        // pc.groupCount (2 or 1) uvec4 per vertex: a bound the compiler cannot see, so that it keeps
         // the loop (an unrolled one would be a branch, whose both sides lavapipe runs).
         for (uint k = 1u; k < pc.groupCount; ++k) {
             const uvec4 r = vertexWords(base + k);

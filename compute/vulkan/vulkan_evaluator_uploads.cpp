@@ -433,16 +433,28 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     makeVertexBuffer(normals, surface.vertexCount, 4, true);  // padded: written as vec4, read back as xyz
     // Two fixed layouts that save the kernels their offset loads (one uvec4 fetch per 4 words):
     // all faces quads (corners of face f at 4 f), and vertices in at most 8 faces (vertex v's 8
-    // words at 8 v: its faces in table order, then the zero element's number). A few vertices
-    // in more faces (`heavy`: the cow's 38 of 1.1M at 7 steps, valences up to 14) do not stop
-    // the fixed layout: their sums are overwritten after it by their own CSR rows (listed).
+    // words at 8 v: its faces in table order, then the zero element's number; or 4, below). A
+    // few vertices in more faces (`heavy`: the cow's 38 of 1.1M at 7 steps, valences up to 14)
+    // do not stop the fixed layout: their sums are overwritten after it by their own CSR rows
+    // (listed).
     bool allQuads = faces > 0;
     for (std::uint64_t f = 0; f < faces && allQuads; ++f) allQuads = surface.faceOffsets[f + 1] - surface.faceOffsets[f] == 4;
-    std::vector<std::uint32_t> heavy;
-    for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
-        if (surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] > kVertexWords) heavy.push_back(v);
+    const auto inMoreFacesThan = [&](std::uint32_t words) {
+        std::vector<std::uint32_t> vertices;
+        for (std::uint32_t v = 0; v < surface.vertexCount; ++v)
+            if (surface.vertexOffsets[v + 1] - surface.vertexOffsets[v] > words) vertices.push_back(v);
+        return vertices;
+    };
+    std::vector<std::uint32_t> heavy = inMoreFacesThan(kVertexWords);
     const bool fixedVertices = surface.vertexCount > 0 && heavy.size() <= surface.vertexCount / 64;
     if (tiled && allQuads && fixedVertices && heavy.empty() && buildTileNormals(*tiled, surface, uploader)) return;
+    // Four words a vertex where as few are in more faces (a quad mesh's vertices are mostly in
+    // four): one uvec4 fetch a vertex instead of two, half the table (the cow at 7 steps: 2,800
+    // of 1.1M vertices heavy then; 18 MB less).
+    std::uint32_t words = kVertexWords;
+    if (fixedVertices)
+        if (std::vector<std::uint32_t> four = inMoreFacesThan(4); four.size() <= surface.vertexCount / 64)
+            heavy = std::move(four), words = 4;
     // Padded: read and written as vec4. One element more, after the faces': zero, cleared by
     // every frame, for the fixed vertex layout's unused slots.
     makeVertexBuffer(faceNormals, faces + 1, 4, false);
@@ -457,18 +469,18 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
     std::vector<std::pair<std::uint64_t, std::uint64_t>> vertexRows;
     if (fixedVertices) {
         vertexWords = uploader.uploadFilled<std::uint32_t>(
-            std::size_t(surface.vertexCount) * kVertexWords,
-            [&](std::uint32_t* words) {
-                for (std::uint32_t v = 0; v < surface.vertexCount; ++v, words += kVertexWords) {
+            std::size_t(surface.vertexCount) * words,
+            [&](std::uint32_t* to) {
+                for (std::uint32_t v = 0; v < surface.vertexCount; ++v, to += words) {
                     const std::uint32_t begin = surface.vertexOffsets[v];
-                    const std::uint32_t end = std::min(surface.vertexOffsets[v + 1], begin + kVertexWords);
-                    std::copy(surface.vertexFaces.begin() + begin, surface.vertexFaces.begin() + end, words);
-                    std::fill(words + (end - begin), words + kVertexWords, std::uint32_t(faces));
+                    const std::uint32_t end = std::min(surface.vertexOffsets[v + 1], begin + words);
+                    std::copy(surface.vertexFaces.begin() + begin, surface.vertexFaces.begin() + end, to);
+                    std::fill(to + (end - begin), to + words, std::uint32_t(faces));
                 }
             },
             tables);
         vertexRows = split(
-            surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * kVertexWords * (b - a)); },
+            surface.vertexCount, [&](std::uint64_t a, std::uint64_t b) { return fits(4 * words * (b - a)); },
             "surface's vertex faces");
     }
     // Otherwise the CSR table of each vertex's faces.
@@ -498,14 +510,14 @@ void VulkanEvaluator::Impl::buildNormals(const SurfaceTable& surface, const Tile
         Dispatch d = dispatch(b - a);
         d.source = &faceNormals;
         d.destination = &normals;
-        d.tables[0] = window(vertexWords, 4, kVertexWords * a, kVertexWords * b);
+        d.tables[0] = window(vertexWords, 4, words * a, words * b);
         d.tables[1] = d.tables[2] = d.tables[0];
         d.texelFormats[0] = d.texelFormats[1] = d.texelFormats[2] = VK_FORMAT_R32G32B32A32_UINT;
-        d.rowN = kVertexWords;
+        d.rowN = words;
         d.push.groupBase = std::uint32_t(faces);  // the zero element
-        d.push.groupCount = kVertexWords / 4;     // uvec4s per vertex
+        d.push.groupCount = words / 4;            // uvec4s per vertex
         d.push.rowBase = std::uint32_t(a);
-        d.push.tableBase = std::uint32_t(kVertexWords * a - d.tables[1].firstElement);
+        d.push.tableBase = std::uint32_t(words * a - d.tables[1].firstElement);
         d.push.sourceWindowSize = faceNormals.windowSize;
         d.push.destinationWindowSize = normals.windowSize;
         vertexStage.dispatches.push_back(d);
