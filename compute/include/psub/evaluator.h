@@ -90,6 +90,11 @@ void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<
 // psub/tiled.h; toCanonical rearranges it) and its normals follow the same order.
 enum class TableForm { PerLevel, Factorized, Tiled };
 
+// The threads a CpuEvaluator's frame of `table`'s per-level rows runs on, of `threads` (0: all
+// cores): one per ~32k output values, so small meshes run on one. A caller ordering the table by
+// region (orderLevelsByRegion) makes this many regions.
+int perLevelFrameThreads(const PerLevelTable& table, std::uint32_t width = 3, int threads = 0);
+
 // Control points are not checked (a frame must not pay for it). NaN or infinite control points,
 // or finite ones so large that a weighted sum overflows T (for float: beyond about 1e37 for
 // positions; normals take fourth powers, so beyond about 1e9), give NaN or infinite refined
@@ -97,13 +102,9 @@ enum class TableForm { PerLevel, Factorized, Tiled };
 // out of bounds. The psub commands refuse such input before it gets here (README, bad input).
 //
 // The per-frame evaluator: control points in, refined vertices out, on up to `threads`
-// threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the intermediate levels are allocated once, here; a frame
-// allocates nothing (one exception: normals(), below). Keeps references to the tables: they must outlive the evaluator.
-// The threads a CpuEvaluator's frame of `table`'s per-level rows runs on, of `threads` (0: all
-// cores): one per ~32k output values, so small meshes run on one. A caller ordering the table by
-// region (orderLevelsByRegion) makes this many regions.
-int perLevelFrameThreads(const PerLevelTable& table, std::uint32_t width = 3, int threads = 0);
-
+// threads (0: all cores; fewer for small meshes, one per ~32k output values). Buffers for the
+// intermediate levels are allocated once, here; a frame allocates nothing (one exception:
+// normals(), below). Keeps references to the tables: they must outlive the evaluator.
 template <class T>
 class CpuEvaluator {
 public:
