@@ -1,10 +1,11 @@
 // orderLevelsByRegion: renumbers a per-level table's intermediate levels by region of the
 // control mesh and orders each row group's rows by region (docs/design.md, "Threads and
 // regions"), so that threads taking even shares of every group each work on one region at every
-// level and read mostly the points they wrote themselves. orderFallbackByWalk: the tiled
-// form's fallback points, and the levels only its rows use, numbered along a walk of the
-// surface (docs/tiled.md, "Output order"). The first reads the table only, the second also the
-// finest faces.
+// level and read mostly the points they wrote themselves. walkFallback, orderFinestByWalk and
+// orderLevelsByWalk: the tiled form's fallback points, and the levels only its rows use,
+// numbered along a walk of the surface (docs/tiled.md, "Output order"): the finest points from
+// a walk of the finest faces, then the levels before from their rows. Only walkFallback reads
+// faces; the others read the tables alone.
 #include "psub/stencils.h"
 #include "tiled_build.h"
 
@@ -151,75 +152,6 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
 
 namespace {
 
-// The fallback's finest points in order of first appearance along a breadth-first walk of the
-// finest faces (over shared corners; faces without a fallback corner neither walked nor
-// crossed): per drawing position, the new one (the tiles' unchanged).
-std::vector<std::uint32_t> fallbackWalkOrder(const TiledTable& table, const std::vector<std::uint32_t>& drawOf,
-                                             const Faces& finest) {
-    const Index faceCount = finest.faceCount(), vertexCount = finest.vertexCount;
-    // Which faces are walked (those with a fallback corner; without a tile, every one), and
-    // the faces around each vertex among them.
-    std::vector<char> walked(faceCount, 0);
-    if (table.fallbackBegin > 0)
-        for (Index f = 0; f < faceCount; ++f) {
-            walked[f] = 1;
-            for (Index v : finest.face(f))
-                if (drawOf[v] >= table.fallbackBegin) walked[f] = 0;
-        }
-    std::vector<Index> offsets(std::size_t(vertexCount) + 1, 0);
-    for (Index f = 0; f < faceCount; ++f)
-        if (!walked[f])
-            for (Index v : finest.face(f)) ++offsets[v + 1];
-    for (Index v = 0; v < vertexCount; ++v) offsets[v + 1] += offsets[v];
-    std::vector<Index> faces(offsets.back());
-    for (Index f = 0; f < faceCount; ++f)
-        if (!walked[f])
-            for (Index v : finest.face(f)) faces[offsets[v]++] = f;
-    for (Index v = vertexCount; v > 0; --v) offsets[v] = offsets[v - 1];  // back to each list's start
-    offsets[0] = 0;
-    // The walk: a face's corners placed in corner order as it is taken from the queue; the
-    // faces around a corner queued when it is placed (a corner placed before had its queued).
-    // placedAt[v]: finest vertex v's new drawing position (a tile's point: its own), kNone
-    // until placed. The queue is read ahead (prefetches, at the distances measured best): a
-    // face's corner offset 88 faces ahead, its corners and their data 32 ahead, their face
-    // lists 8 ahead, so that they are in cache when it is taken (the walk is bound by misses).
-    std::vector<std::uint32_t> placedAt(vertexCount);
-    for (Index v = 0; v < vertexCount; ++v) placedAt[v] = drawOf[v] < table.fallbackBegin ? drawOf[v] : kNone;
-    std::uint32_t placed = table.fallbackBegin;
-    std::vector<Index> queue;
-    queue.reserve(faceCount);
-    const auto readAhead = [&](std::size_t head) {
-        if (head + 88 < queue.size()) __builtin_prefetch(&finest.offsets[queue[head + 88]]);
-        if (head + 32 < queue.size()) __builtin_prefetch(&finest.verts[finest.offsets[queue[head + 32]]]);
-        if (head + 32 < queue.size())
-            for (Index v : finest.face(queue[head + 32])) {
-                __builtin_prefetch(&placedAt[v]);
-                __builtin_prefetch(&offsets[v]);
-            }
-        if (head + 8 < queue.size())
-            for (Index v : finest.face(queue[head + 8])) __builtin_prefetch(&faces[offsets[v]]);
-    };
-    for (Index seed = 0; seed < faceCount; ++seed) {
-        if (walked[seed]) continue;
-        walked[seed] = 1;
-        queue.push_back(seed);
-        for (std::size_t head = queue.size() - 1; head < queue.size(); ++head) {
-            readAhead(head);
-            for (Index v : finest.face(queue[head])) {
-                if (placedAt[v] != kNone) continue;
-                placedAt[v] = placed++;
-                for (Index i = offsets[v]; i < offsets[v + 1]; ++i)
-                    if (!walked[faces[i]]) walked[faces[i]] = 1, queue.push_back(faces[i]);
-            }
-        }
-    }
-    std::vector<std::uint32_t> position(table.refinedCount, kNone);
-    for (Index v = 0; v < vertexCount; ++v)
-        if (placedAt[v] != kNone) position[drawOf[v]] = placedAt[v];
-    for (std::uint32_t p = table.fallbackBegin; p < table.refinedCount; ++p)  // on no face
-        if (position[p] == kNone) position[p] = placed++;
-    return position;
-}
 
 // Per point of level k + 1 by its new number (`position`: old number -> new), the group
 // within level k of the row that writes it (`groups`, past the last, where no row does).
@@ -295,28 +227,107 @@ void groupFinestInChunks(const PerLevelTable& rows, std::uint32_t fallbackBegin,
 
 }  // namespace
 
-void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest) {
-    PerLevelTable& rows = table.rows;
-    const std::size_t levels = rows.levels.size();
-    if (levels == 0 || table.fallbackBegin == table.refinedCount) return;
-    if (rows.regions != 1) throw std::logic_error("orderFallbackByWalk: the rows are region-ordered already");
+std::vector<std::uint32_t> walkFallback(const TiledTable& table, const std::vector<std::uint32_t>& drawOf,
+                                        const Faces& finest) {
+    if (table.fallbackBegin == table.refinedCount) return {};
     if (finest.vertexCount != table.refinedCount || drawOf.size() != table.refinedCount ||
         table.canonical.size() != table.refinedCount)
-        throw std::invalid_argument("orderFallbackByWalk: the faces are not the table's finest level");
-    // Per point of the level being renumbered, its new number: first the finest level's drawing
-    // positions (the fallback's moved).
-    std::vector<std::uint32_t> position = fallbackWalkOrder(table, drawOf, finest);
+        throw std::invalid_argument("walkFallback: the faces are not the table's finest level");
+    const Index faceCount = finest.faceCount(), vertexCount = finest.vertexCount;
+    // Which faces are walked (those with a fallback corner; without a tile, every one), and
+    // the faces around each vertex among them.
+    std::vector<char> walked(faceCount, 0);
+    if (table.fallbackBegin > 0)
+        for (Index f = 0; f < faceCount; ++f) {
+            walked[f] = 1;
+            for (Index v : finest.face(f))
+                if (drawOf[v] >= table.fallbackBegin) walked[f] = 0;
+        }
+    std::vector<Index> offsets(std::size_t(vertexCount) + 1, 0);
+    for (Index f = 0; f < faceCount; ++f)
+        if (!walked[f])
+            for (Index v : finest.face(f)) ++offsets[v + 1];
+    for (Index v = 0; v < vertexCount; ++v) offsets[v + 1] += offsets[v];
+    std::vector<Index> faces(offsets.back());
+    for (Index f = 0; f < faceCount; ++f)
+        if (!walked[f])
+            for (Index v : finest.face(f)) faces[offsets[v]++] = f;
+    for (Index v = vertexCount; v > 0; --v) offsets[v] = offsets[v - 1];  // back to each list's start
+    offsets[0] = 0;
+    // The walk: a face's corners placed in corner order as it is taken from the queue; the
+    // faces around a corner queued when it is placed (a corner placed before had its queued).
+    // placedAt[v]: finest vertex v's new drawing position (a tile's point: its own), kNone
+    // until placed. The queue is read ahead (prefetches, at the distances measured best): a
+    // face's corner offset 88 faces ahead, its corners and their data 32 ahead, their face
+    // lists 8 ahead, so that they are in cache when it is taken (the walk is bound by misses).
+    std::vector<std::uint32_t> placedAt(vertexCount);
+    for (Index v = 0; v < vertexCount; ++v) placedAt[v] = drawOf[v] < table.fallbackBegin ? drawOf[v] : kNone;
+    std::uint32_t placed = table.fallbackBegin;
+    std::vector<Index> queue;
+    queue.reserve(faceCount);
+    const auto readAhead = [&](std::size_t head) {
+        if (head + 88 < queue.size()) __builtin_prefetch(&finest.offsets[queue[head + 88]]);
+        if (head + 32 < queue.size()) __builtin_prefetch(&finest.verts[finest.offsets[queue[head + 32]]]);
+        if (head + 32 < queue.size())
+            for (Index v : finest.face(queue[head + 32])) {
+                __builtin_prefetch(&placedAt[v]);
+                __builtin_prefetch(&offsets[v]);
+            }
+        if (head + 8 < queue.size())
+            for (Index v : finest.face(queue[head + 8])) __builtin_prefetch(&faces[offsets[v]]);
+    };
+    for (Index seed = 0; seed < faceCount; ++seed) {
+        if (walked[seed]) continue;
+        walked[seed] = 1;
+        queue.push_back(seed);
+        for (std::size_t head = queue.size() - 1; head < queue.size(); ++head) {
+            readAhead(head);
+            for (Index v : finest.face(queue[head])) {
+                if (placedAt[v] != kNone) continue;
+                placedAt[v] = placed++;
+                for (Index i = offsets[v]; i < offsets[v + 1]; ++i)
+                    if (!walked[faces[i]]) walked[faces[i]] = 1, queue.push_back(faces[i]);
+            }
+        }
+    }
+    std::vector<std::uint32_t> position(table.refinedCount, kNone);
+    for (Index v = 0; v < vertexCount; ++v)
+        if (placedAt[v] != kNone) position[drawOf[v]] = placedAt[v];
+    for (std::uint32_t p = table.fallbackBegin; p < table.refinedCount; ++p)  // on no face
+        if (position[p] == kNone) position[p] = placed++;
+    return position;
+}
+
+std::vector<std::uint32_t> orderFinestByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf,
+                                             std::vector<std::uint32_t> walk) {
+    const PerLevelTable& rows = table.rows;
+    if (rows.levels.empty() || walk.empty()) return {};
+    if (rows.regions != 1) throw std::logic_error("orderFinestByWalk: the rows are region-ordered already");
+    if (walk.size() != table.refinedCount || drawOf.size() != table.refinedCount)
+        throw std::invalid_argument("orderFinestByWalk: the walk is not of the table's finest points");
+    // Per finest point (drawing position), its new one: the fallback's moved.
+    std::vector<std::uint32_t> position = std::move(walk);
     groupFinestInChunks(rows, table.fallbackBegin, position);
     const std::vector<std::uint32_t> canonical(table.canonical);
     for (std::uint32_t p = table.fallbackBegin; p < table.refinedCount; ++p) {
         table.canonical[position[p]] = canonical[p];
         drawOf[canonical[p]] = position[p];
     }
-    // Then, from the finest level back, each level's rows by their new destination within each
-    // group (they ascend again), and the level before's points by first use by them, then
-    // grouped by the group of the row that writes them (groupLevelPoints), down to level
-    // `first`: level B and those before it are gathered by the tiles (without a tile, only the
-    // control points keep their numbers).
+    return position;
+}
+
+void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
+    PerLevelTable& rows = table.rows;
+    const std::size_t levels = rows.levels.size();
+    if (position.empty()) return;
+    if (position.size() != table.refinedCount)
+        throw std::invalid_argument("orderLevelsByWalk: the numbering is not of the table's finest points");
+    // Per point of the level being renumbered, its new number (first the finest level's). From
+    // the finest level back, each level's rows by their new destination within each group (they
+    // ascend again), and the level before's points by first use by them, then grouped by the
+    // group of the row that writes them (groupLevelPoints), down to level `first`: level B and
+    // those before it are gathered by the tiles (without a tile, only the control points keep
+    // their numbers).
     const std::size_t first = table.tileCount() > 0 ? std::size_t(table.baseLevel) + 1 : 1;
     rows.walkFrom = std::uint32_t(first - 1);
     // rowAt[d]: the row writing new destination d, as its group within the level (high 32 bits)
@@ -389,3 +400,4 @@ void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, 
 }
 
 }  // namespace psub
+

@@ -736,6 +736,15 @@ void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<s
     table.surface = buildSurfaceTable(std::move(faces));
 }
 
+void orderByWalkAndSetSurface(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest,
+                              std::vector<std::uint32_t> walk) {
+    std::vector<std::uint32_t> position = orderFinestByWalk(table, drawOf, std::move(walk));  // drawOf final here
+    // The two write different members of `table` and read nothing the other writes. Side by
+    // side the cow's lean build at 7 steps (1.1M faces, no tile) took 30 ms less on two threads.
+    sideBySide(!position.empty() && mostlyFallback(table), [&] { orderLevelsByWalk(table, std::move(position)); },
+               [&] { setTiledSurface(table, finest, drawOf); });
+}
+
 TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& coarse, bool coarseSplits,
                            const Faces& finest, TiledPlan plan) {
     if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
@@ -757,8 +766,7 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
     std::vector<std::uint32_t> drawOf =
         placeTiles(table, chooseTileBlocks(base, plan), &coarse, coarseSplits, perLevel.refinedCount());
     keepFallbackRows(table, perLevel, drawOf);
-    orderFallbackByWalk(table, drawOf, finest);
-    setTiledSurface(table, finest, drawOf);
+    orderByWalkAndSetSurface(table, drawOf, finest, walkFallback(table, drawOf, finest));
     return table;
 }
 

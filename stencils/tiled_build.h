@@ -7,7 +7,10 @@
 #include "psub/stencils.h"
 #include "psub/tiled.h"
 
+#include <omp.h>
+
 #include <cstdint>
+#include <exception>
 #include <vector>
 
 namespace psub {
@@ -51,9 +54,60 @@ void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector
 // destination. table.rows, table.canonical and drawOf renumbered to match: the same output
 // through `canonical`, with points near on the surface near in memory at every level (the cow
 // at 7 steps, no tile: evaluation with normals about 1.6x faster than in canonical order).
-void orderFallbackByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest);
+// In three parts:
+// - walkFallback: per drawing position, the new one (the tiles' unchanged): the fallback's
+//   finest points in order of first appearance along a breadth-first walk of the finest faces
+//   (over shared corners; faces without a fallback corner neither walked nor crossed). Reads
+//   neither rows nor levels, so it can run beside the last step's rows. Empty when every
+//   point is a tile's.
+// - orderFinestByWalk: from the walk, the finest points renumbered (table.canonical and
+//   drawOf); returns, per old drawing position, its new one (empty when nothing moved).
+// - orderLevelsByWalk: from that, the rows and the levels before them (table.rows alone).
+std::vector<std::uint32_t> walkFallback(const TiledTable& table, const std::vector<std::uint32_t>& drawOf,
+                                        const Faces& finest);
+std::vector<std::uint32_t> orderFinestByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf,
+                                             std::vector<std::uint32_t> walk);
+void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position);
 
 // table.surface: the finest faces over drawing positions, ordered by their first drawn corner.
 void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<std::uint32_t>& drawOf);
+
+// Runs `first` and `second`, on two threads when `together` and the build has two (OpenMP
+// sections; what they run inside on more threads runs on their own one), else one after the
+// other. An exception of either is rethrown once both are done (the first's if both throw).
+template <class First, class Second>
+void sideBySide(bool together, First&& first, Second&& second) {
+    std::exception_ptr failures[2];
+#pragma omp parallel sections num_threads(2) if (together && omp_get_max_threads() > 1)
+    {
+#pragma omp section
+        try {
+            first();
+        } catch (...) {
+            failures[0] = std::current_exception();
+        }
+#pragma omp section
+        try {
+            second();
+        } catch (...) {
+            failures[1] = std::current_exception();
+        }
+    }
+    for (const std::exception_ptr& failure : failures)
+        if (failure) std::rethrow_exception(failure);
+}
+
+// Whether the fallback is most of the finest points: the walk and the levels' renumbering then
+// take long enough to run beside other work (otherwise that work, itself on several threads,
+// is better left its threads: the 1M-face torus's build, with a small fallback, was 5 ms slower).
+inline bool mostlyFallback(const TiledTable& table) {
+    return table.refinedCount - table.fallbackBegin >= table.refinedCount / 2;
+}
+
+// The fallback in walk order from `walk` (walkFallback's), then the surface (both above). The
+// surface depends only on the finest points' order, so it is sorted beside orderLevelsByWalk,
+// on a second thread where the build has one.
+void orderByWalkAndSetSurface(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest,
+                              std::vector<std::uint32_t> walk);
 
 }  // namespace psub

@@ -8,6 +8,7 @@
 #include "tiled_options.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -730,6 +731,30 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
     for (int boundary = 0; boundary < 2; ++boundary)
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
     EXPECT_GT(fallbackPoints, 0u);  // tiles beside fallback rows, not only all-tile tables
+}
+
+// Where the fallback is most of the finest points, the build runs the walk of the finest faces
+// beside the last step's rows and the levels' renumbering beside the faces' sort (two threads;
+// docs/tiled.md, "The lean build"); on one thread one after the other. The tables must be the
+// same: the cow and a 4 x 4 grid (no tile; the grid with the smooth boundary's split edges) and
+// Spot (tiles beside a fallback of three quarters), lean and full builds, on 1 and 2 threads.
+TEST(Tiled, TheTableIsTheSameOnOneThreadAndTwo) {
+    const int before = omp_get_max_threads();
+    for (const char* name : {"cow.obj", "spot_control_mesh.obj", "grid4x4.obj"})
+        for (const bool perLevel : {false, true}) {
+            SCOPED_TRACE(std::string(name) + (perLevel ? " full" : " lean"));
+            const test::Loaded loaded = test::load(test::dataPath(name));
+            RefineOptions options = test::tiledOptions(std::string(name) == "cow.obj" ? 4 : 6, Boundary::Smooth);
+            options.perLevel = perLevel;
+            omp_set_num_threads(1);
+            const Refinement one = refine(loaded.mesh, loaded.checked.connectivity, options);
+            omp_set_num_threads(2);
+            const Refinement two = refine(loaded.mesh, loaded.checked.connectivity, options);
+            omp_set_num_threads(before);
+            EXPECT_GE(2 * (one.tiled.refinedCount - one.tiled.fallbackBegin), one.tiled.refinedCount);
+            EXPECT_EQ(one.tiled.tileCount() > 0, std::string(name) == "spot_control_mesh.obj");
+            expectSameTable(one.tiled, two.tiled);
+        }
 }
 
 // Without the per-level table only the tiled form can be built.

@@ -59,7 +59,7 @@ struct StencilLevel {
 // numbering, and so every output value stays the same. The CPU evaluator then gives each thread
 // an even share of every group of those levels (docs/design.md, "Threads and regions").
 // The tiled form's rows of levels [walkFrom, levels.size()) write points numbered in walk order
-// (orderFallbackByWalk, docs/tiled.md): the first half of each group is then one half of the
+// (docs/tiled.md, "Output order"): the first half of each group is then one half of the
 // surface, so the CPU evaluator splits those levels the same way.
 struct PerLevelTable {
     std::uint32_t controlCount = 0;
