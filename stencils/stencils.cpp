@@ -573,7 +573,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         out.topologyMs += topologyMs;
         if (lean && finestFaces) {
             start = Clock::now();
-            sideBySide(mostlyFallback(out.tiled), [&] { appendLeanRows(k, split); },
+            sideBySide(false && mostlyFallback(out.tiled), [&] { appendLeanRows(k, split); },
                        [&] { walk = walkFallback(out.tiled, drawOf, finest); });
             walked = true;
             out.tiledMs += ms(start);

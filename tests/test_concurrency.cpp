@@ -120,5 +120,49 @@ TEST(Concurrency, TheTableIsTheSameWhateverTheBuildsThreadCount) {
     }
 }
 
+// The topological step runs its long loops in pieces, one per OpenMP thread, from 2^18 edges or
+// half-edges on (topology/connectivity_detail.h): a level's faces and every connectivity array
+// must not depend on how many pieces there were. A 4 x 4 grid (a boundary, split by the smooth
+// rule at every step here) and the cow, refined until a step has over 2^18 edges, on 1, 2, 3
+// and 8 threads; and the finest faces alone (refineFaces), as the tiled build makes them.
+TEST(Concurrency, TheTopologyIsTheSameWhateverTheThreadCount) {
+    const int before = omp_get_max_threads();
+    for (const char* name : {"grid4x4.obj", "cow.obj"})
+        for (const bool split : {false, true}) {
+            SCOPED_TRACE(std::string(name) + (split ? " split" : ""));
+            const test::Loaded loaded = test::load(test::dataPath(name));
+            std::vector<Level> levels;
+            std::vector<Faces> finest;
+            for (const int threads : {1, 2, 3, 8}) {
+                omp_set_num_threads(threads);
+                Level level{loaded.mesh.faces, loaded.checked.connectivity};
+                while (level.connectivity.edgeCount() < 300000) level = refineLevel(std::move(level), split);
+                finest.push_back(refineFaces(level.faces, level.connectivity, split));
+                levels.push_back(std::move(level));
+            }
+            omp_set_num_threads(before);
+            EXPECT_EQ(levels[0].connectivity.boundaryEdgeCount > 0, std::string(name) == "grid4x4.obj");
+            for (std::size_t i = 1; i < levels.size(); ++i) {
+                const Level &a = levels[i], &b = levels[0];
+                EXPECT_EQ(a.faces.vertexCount, b.faces.vertexCount);
+                EXPECT_EQ(a.faces.offsets, b.faces.offsets);
+                EXPECT_EQ(a.faces.verts, b.faces.verts);
+                const Connectivity &x = a.connectivity, &y = b.connectivity;
+                EXPECT_EQ(x.faceOf, y.faceOf);
+                EXPECT_EQ(x.next, y.next);
+                EXPECT_EQ(x.twin, y.twin);
+                EXPECT_EQ(x.edgeOf, y.edgeOf);
+                EXPECT_EQ(x.edgeHalfedge, y.edgeHalfedge);
+                EXPECT_EQ(x.outOffsets, y.outOffsets);
+                EXPECT_EQ(x.outgoing, y.outgoing);
+                EXPECT_EQ(x.valence, y.valence);
+                EXPECT_EQ(x.kind, y.kind);
+                EXPECT_EQ(x.boundaryEdgeCount, y.boundaryEdgeCount);
+                EXPECT_EQ(finest[i].offsets, finest[0].offsets);
+                EXPECT_EQ(finest[i].verts, finest[0].verts);
+            }
+        }
+}
+
 }  // namespace
 }  // namespace psub

@@ -4,7 +4,21 @@
 
 #include "psub/topology.h"
 
+#include <omp.h>
+
+#include <cstdint>
+#include <vector>
+
 namespace psub {
+
+// Long loops of the topological step run in pieces on the OpenMP threads, each piece a range
+// of [0, count) that knows where its output starts from counts taken over the pieces before it
+// (so the arrays are the same on any thread count). Below kPieceMinimum items, one piece.
+constexpr Index kPieceMinimum = Index(1) << 18;
+inline int piecesFor(Index count) { return count < kPieceMinimum ? 1 : omp_get_max_threads(); }
+inline Index pieceBegin(Index count, int pieces, int p) {
+    return Index(std::uint64_t(count) * std::uint64_t(p) / std::uint64_t(pieces));
+}
 
 // Given faces and c.faceOf, c.next and c.twin: numbers the edges (first appearance), builds
 // the outgoing half-edge rows (ascending) and the valences. Leaves c.kind alone.
