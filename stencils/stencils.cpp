@@ -461,8 +461,6 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     PerLevelTable leanRows;
     leanRows.controlCount = mesh.faces.vertexCount;
     std::vector<std::uint32_t> drawOf;
-    std::vector<std::uint32_t> walk;  // the fallback's walk (walkFallback), once `walked`
-    bool walked = false;
     // Room for the lean build's rows of the steps known to make every row (as the per-level
     // table's): the paired step, the steps up to level B, and all of them once level B has no
     // tile. Without it the cow at 7 steps (no tile), built without huge pages, spent over half
@@ -554,34 +552,21 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             drawOf = placeTiles(out.tiled, blocks, plan.doubleSteps > 0 ? &parent : nullptr, split, Index(finest.vertices));
             out.tiledMs += ms(start);
         }
-        // The finest level: only its faces (the surface), no half-edges. In the lean build they
-        // are made before the last step's rows, so that the fallback's walk of them runs beside
-        // those rows (the cow at 7 steps, 1.1M faces, no tile: about 20 ms less on two threads).
-        const bool finestFaces = k == steps && k > firstQuadLevel;
-        if (lean && !finestFaces) {
+        if (lean) {
             start = Clock::now();
             appendLeanRows(k, split);
             out.tiledMs += ms(start);
         }
         start = Clock::now();
-        Faces finest;
-        if (finestFaces)
-            finest = refineFaces(parent.faces, parent.connectivity, split);
-        else
+        if (k == steps && k > firstQuadLevel) {
+            // The finest level: only its faces (the surface), no half-edges.
+            parent.faces = refineFaces(parent.faces, parent.connectivity, split);
+            parent.connectivity = {};
+        } else {
             parent = refineLevel(std::move(parent), split);  // frees the parent while the child grows
+        }
         const double topologyMs = ms(start);
         out.topologyMs += topologyMs;
-        if (lean && finestFaces) {
-            start = Clock::now();
-            sideBySide(false && mostlyFallback(out.tiled), [&] { appendLeanRows(k, split); },
-                       [&] { walk = walkFallback(out.tiled, drawOf, finest); });
-            walked = true;
-            out.tiledMs += ms(start);
-        }
-        if (finestFaces) {
-            parent.faces = std::move(finest);
-            parent.connectivity = {};
-        }
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
         planTiles(k);
     }
@@ -592,8 +577,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             keepFallbackRows(out.tiled, std::move(leanRows), drawOf);
         else
             keepFallbackRows(out.tiled, out.perLevel, drawOf);
-        if (!walked) walk = walkFallback(out.tiled, drawOf, parent.faces);
-        orderByWalkAndSetSurface(out.tiled, drawOf, parent.faces, std::move(walk));
+        orderByWalkAndSetSurface(out.tiled, drawOf, parent.faces);
         out.tiledMs += ms(start);
     }
     parent.connectivity = {};

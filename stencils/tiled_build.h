@@ -57,9 +57,8 @@ void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector
 // In three parts:
 // - walkFallback: per drawing position, the new one (the tiles' unchanged): the fallback's
 //   finest points in order of first appearance along a breadth-first walk of the finest faces
-//   (over shared corners; faces without a fallback corner neither walked nor crossed). Reads
-//   neither rows nor levels, so it can run beside the last step's rows. Empty when every
-//   point is a tile's.
+//   (over shared corners; faces without a fallback corner neither walked nor crossed). Empty
+//   when every point is a tile's.
 // - orderFinestByWalk: from the walk, the finest points renumbered (table.canonical and
 //   drawOf); returns, per old drawing position, its new one (empty when nothing moved).
 // - orderLevelsByWalk: from that, the rows and the levels before them (table.rows alone).
@@ -97,17 +96,17 @@ void sideBySide(bool together, First&& first, Second&& second) {
         if (failure) std::rethrow_exception(failure);
 }
 
-// Whether the fallback is most of the finest points: the walk and the levels' renumbering then
-// take long enough to run beside other work (otherwise that work, itself on several threads,
-// is better left its threads: the 1M-face torus's build, with a small fallback, was 5 ms slower).
+// Whether the fallback is most of the finest points: the levels' renumbering then takes long
+// enough to run beside the faces' sort (otherwise the sort, partly on several threads itself, is
+// better left its threads: the 1M-face torus's build, whose fallback is small, was about 5 ms
+// slower side by side).
 inline bool mostlyFallback(const TiledTable& table) {
     return table.refinedCount - table.fallbackBegin >= table.refinedCount / 2;
 }
 
-// The fallback in walk order from `walk` (walkFallback's), then the surface (both above). The
-// surface depends only on the finest points' order, so it is sorted beside orderLevelsByWalk,
-// on a second thread where the build has one.
-void orderByWalkAndSetSurface(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest,
-                              std::vector<std::uint32_t> walk);
+// The fallback in walk order, then the surface (both above). The surface depends only on the
+// finest points' order, so it is sorted beside orderLevelsByWalk, on a second thread where the
+// build has one.
+void orderByWalkAndSetSurface(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest);
 
 }  // namespace psub
