@@ -111,7 +111,7 @@ void completeConnectivity(const Faces& faces, Connectivity& c) {
 #pragma omp parallel for num_threads(pieces) schedule(static, 1)
     for (int p = 0; p < pieces; ++p) {
         Index edges = 0;
-        for (Index h = begin(p); h < begin(p + 1); ++h) {
+        for (Index h = begin(p), end = begin(p + 1); h < end; ++h) {
             edges += starts(h);
             if (c.twin[h] == kNoIndex) boundary[std::size_t(p)].push_back(h);
         }
@@ -127,7 +127,7 @@ void completeConnectivity(const Faces& faces, Connectivity& c) {
 #pragma omp parallel for num_threads(pieces) schedule(static, 1)
     for (int p = 0; p < pieces; ++p) {
         Index edge = edgesBefore[std::size_t(p)];
-        for (Index h = begin(p); h < begin(p + 1); ++h) {
+        for (Index h = begin(p), end = begin(p + 1); h < end; ++h) {
             if (!starts(h)) continue;
             c.edgeOf[h] = edge;
             if (c.twin[h] != kNoIndex) c.edgeOf[c.twin[h]] = edge;

@@ -66,7 +66,7 @@ void forEachParentEdge(const Connectivity& c, Index firstEdgePoint, bool splitBo
 #pragma omp parallel for num_threads(pieces) schedule(static, 1)
     for (int p = 0; p < pieces; ++p) {
         Index count = 0;
-        for (Index e = pieceBegin(edges, pieces, p); e < pieceBegin(edges, pieces, p + 1); ++e)
+        for (Index e = pieceBegin(edges, pieces, p), end = pieceBegin(edges, pieces, p + 1); e < end; ++e)
             count += c.twin[c.edgeHalfedge[e]] == kNoIndex;
         boundaryBefore[std::size_t(p) + 1] = count;
     }
@@ -76,7 +76,7 @@ void forEachParentEdge(const Connectivity& c, Index firstEdgePoint, bool splitBo
         const Index first = pieceBegin(edges, pieces, p), b = boundaryBefore[std::size_t(p)];
         Index corner = 4 * (first - b) + (splitBoundary ? 6 : 3) * b, face = first + (splitBoundary ? b : 0);
         Index edgePoint = firstEdgePoint + b;
-        for (Index e = first; e < pieceBegin(edges, pieces, p + 1); ++e) visit(e, corner, face, edgePoint);
+        for (Index e = first, end = pieceBegin(edges, pieces, p + 1); e < end; ++e) visit(e, corner, face, edgePoint);
     }
 }
 
