@@ -120,48 +120,63 @@ TEST(Concurrency, TheTableIsTheSameWhateverTheBuildsThreadCount) {
     }
 }
 
-// The topological step runs its long loops in pieces, one per OpenMP thread, from 2^18 edges or
-// half-edges on (topology/connectivity_detail.h): a level's faces and every connectivity array
-// must not depend on how many pieces there were. A 4 x 4 grid (a boundary, split by the smooth
-// rule at every step here) and the cow, refined until a step has over 2^18 edges, on 1, 2, 3
-// and 8 threads; and the finest faces alone (refineFaces), as the tiled build makes them.
+// The topological step runs its long loops in pieces, one per OpenMP thread, from
+// topologyPieceMinimum() items on (2^21 by default; 2^12 here, so that small levels take them):
+// a level's faces and every connectivity array must not depend on how many pieces there were. A
+// 4 x 4 grid (a boundary, split by the smooth rule at every step, and not) and the cow, refined
+// until a step's parent has over 2^14 edges, on 1, 2 and 5 threads; and the finest faces alone
+// (refineFaces), as the tiled build makes them.
 TEST(Concurrency, TheTopologyIsTheSameWhateverTheThreadCount) {
-    const int before = omp_get_max_threads();
-    for (const char* name : {"grid4x4.obj", "cow.obj"})
-        for (const bool split : {false, true}) {
-            SCOPED_TRACE(std::string(name) + (split ? " split" : ""));
-            const test::Loaded loaded = test::load(test::dataPath(name));
-            std::vector<Level> levels;
-            std::vector<Faces> finest;
-            for (const int threads : {1, 2, 3, 8}) {
-                omp_set_num_threads(threads);
-                Level level{loaded.mesh.faces, loaded.checked.connectivity};
-                while (level.connectivity.edgeCount() < 300000) level = refineLevel(std::move(level), split);
-                finest.push_back(refineFaces(level.faces, level.connectivity, split));
-                levels.push_back(std::move(level));
-            }
-            omp_set_num_threads(before);
-            EXPECT_EQ(levels[0].connectivity.boundaryEdgeCount > 0, std::string(name) == "grid4x4.obj");
-            for (std::size_t i = 1; i < levels.size(); ++i) {
-                const Level &a = levels[i], &b = levels[0];
-                EXPECT_EQ(a.faces.vertexCount, b.faces.vertexCount);
-                EXPECT_EQ(a.faces.offsets, b.faces.offsets);
-                EXPECT_EQ(a.faces.verts, b.faces.verts);
-                const Connectivity &x = a.connectivity, &y = b.connectivity;
-                EXPECT_EQ(x.faceOf, y.faceOf);
-                EXPECT_EQ(x.next, y.next);
-                EXPECT_EQ(x.twin, y.twin);
-                EXPECT_EQ(x.edgeOf, y.edgeOf);
-                EXPECT_EQ(x.edgeHalfedge, y.edgeHalfedge);
-                EXPECT_EQ(x.outOffsets, y.outOffsets);
-                EXPECT_EQ(x.outgoing, y.outgoing);
-                EXPECT_EQ(x.valence, y.valence);
-                EXPECT_EQ(x.kind, y.kind);
-                EXPECT_EQ(x.boundaryEdgeCount, y.boundaryEdgeCount);
-                EXPECT_EQ(finest[i].offsets, finest[0].offsets);
-                EXPECT_EQ(finest[i].verts, finest[0].verts);
-            }
+    struct Restore {
+        int threads = omp_get_max_threads();
+        Index minimum = topologyPieceMinimum();
+        ~Restore() {
+            omp_set_num_threads(threads);
+            setTopologyPieceMinimum(minimum);
         }
+    } restore;
+    setTopologyPieceMinimum(Index(1) << 12);
+    struct Result {
+        Level level;
+        Faces finest;
+    };
+    const auto refineOn = [](const test::Loaded& loaded, bool split, int threads) {
+        omp_set_num_threads(threads);
+        Level level{loaded.mesh.faces, loaded.checked.connectivity};
+        bool large = false;  // the last step's parent had over 2^14 edges
+        while (!large) {
+            large = level.connectivity.edgeCount() > (Index(1) << 14);
+            level = refineLevel(std::move(level), split);
+        }
+        Faces finest = refineFaces(level.faces, level.connectivity, split);
+        return Result{std::move(level), std::move(finest)};
+    };
+    for (const auto& [name, split] : {std::pair{"grid4x4.obj", false}, {"grid4x4.obj", true}, {"cow.obj", false}}) {
+        SCOPED_TRACE(std::string(name) + (split ? " split" : ""));
+        const test::Loaded loaded = test::load(test::dataPath(name));
+        const Result one = refineOn(loaded, split, 1);
+        EXPECT_EQ(one.level.connectivity.boundaryEdgeCount > 0, std::string(name) == "grid4x4.obj");
+        for (const int threads : {2, 5}) {
+            SCOPED_TRACE(threads);
+            const Result r = refineOn(loaded, split, threads);
+            EXPECT_EQ(r.level.faces.vertexCount, one.level.faces.vertexCount);
+            EXPECT_EQ(r.level.faces.offsets, one.level.faces.offsets);
+            EXPECT_EQ(r.level.faces.verts, one.level.faces.verts);
+            const Connectivity &x = r.level.connectivity, &y = one.level.connectivity;
+            EXPECT_EQ(x.faceOf, y.faceOf);
+            EXPECT_EQ(x.next, y.next);
+            EXPECT_EQ(x.twin, y.twin);
+            EXPECT_EQ(x.edgeOf, y.edgeOf);
+            EXPECT_EQ(x.edgeHalfedge, y.edgeHalfedge);
+            EXPECT_EQ(x.outOffsets, y.outOffsets);
+            EXPECT_EQ(x.outgoing, y.outgoing);
+            EXPECT_EQ(x.valence, y.valence);
+            EXPECT_EQ(x.kind, y.kind);
+            EXPECT_EQ(x.boundaryEdgeCount, y.boundaryEdgeCount);
+            EXPECT_EQ(r.finest.offsets, one.finest.offsets);
+            EXPECT_EQ(r.finest.verts, one.finest.verts);
+        }
+    }
 }
 
 }  // namespace

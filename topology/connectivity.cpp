@@ -3,6 +3,7 @@
 #include "psub/topology.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 namespace psub {
@@ -97,6 +98,13 @@ void classify(const Faces& faces, Connectivity& c) {
 }
 
 }  // namespace
+
+namespace {
+std::atomic<Index> pieceMinimum{Index(1) << 21};
+}  // namespace
+
+Index topologyPieceMinimum() { return pieceMinimum.load(std::memory_order_relaxed); }
+void setTopologyPieceMinimum(Index items) { pieceMinimum.store(std::max<Index>(items, 1), std::memory_order_relaxed); }
 
 void completeConnectivity(const Faces& faces, Connectivity& c) {
     const Index halfedges = Index(faces.verts.size());
