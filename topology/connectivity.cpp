@@ -3,7 +3,6 @@
 #include "psub/topology.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 
 namespace psub {
@@ -99,48 +98,20 @@ void classify(const Faces& faces, Connectivity& c) {
 
 }  // namespace
 
-namespace {
-std::atomic<Index> pieceMinimum{Index(1) << 21};
-}  // namespace
-
-Index topologyPieceMinimum() { return pieceMinimum.load(std::memory_order_relaxed); }
-void setTopologyPieceMinimum(Index items) { pieceMinimum.store(std::max<Index>(items, 1), std::memory_order_relaxed); }
-
 void completeConnectivity(const Faces& faces, Connectivity& c) {
     const Index halfedges = Index(faces.verts.size());
-    // Half-edge h starts an edge when it has no twin or comes before it; edges are numbered in
-    // the order of their first half-edges. In pieces of half-edges: the edges and the boundary
-    // half-edges (twinless) of each piece counted, then numbered from the pieces' sums.
-    const auto starts = [&c](Index h) { return c.twin[h] == kNoIndex || h < c.twin[h]; };
-    const int pieces = piecesFor(halfedges);
-    const auto begin = [&](int p) { return pieceBegin(halfedges, pieces, p); };
-    std::vector<Index> edgesBefore(std::size_t(pieces) + 1, 0);
-    std::vector<std::vector<Index>> boundary(static_cast<std::size_t>(pieces));  // per piece, its twinless half-edges
-#pragma omp parallel for num_threads(pieces) schedule(static, 1)
-    for (int p = 0; p < pieces; ++p) {
-        Index edges = 0;
-        for (Index h = begin(p), end = begin(p + 1); h < end; ++h) {
-            edges += starts(h);
-            if (c.twin[h] == kNoIndex) boundary[std::size_t(p)].push_back(h);
-        }
-        edgesBefore[std::size_t(p) + 1] = edges;
-    }
+    c.edgeOf.assign(halfedges, kNoIndex);
+    c.edgeHalfedge.clear();
+    std::size_t edges = 0;  // reserved exactly: the largest levels' peak memory is bound by it
+    for (Index h = 0; h < halfedges; ++h) edges += c.twin[h] == kNoIndex || h < c.twin[h];
+    c.edgeHalfedge.reserve(edges);
     c.boundaryEdgeCount = 0;
-    for (int p = 0; p < pieces; ++p) {
-        edgesBefore[std::size_t(p) + 1] += edgesBefore[std::size_t(p)];
-        c.boundaryEdgeCount += Index(boundary[std::size_t(p)].size());
-    }
-    c.edgeOf.resize(halfedges);  // every entry written below: a starter's and its twin's
-    c.edgeHalfedge.resize(edgesBefore.back());
-#pragma omp parallel for num_threads(pieces) schedule(static, 1)
-    for (int p = 0; p < pieces; ++p) {
-        Index edge = edgesBefore[std::size_t(p)];
-        for (Index h = begin(p), end = begin(p + 1); h < end; ++h) {
-            if (!starts(h)) continue;
-            c.edgeOf[h] = edge;
-            if (c.twin[h] != kNoIndex) c.edgeOf[c.twin[h]] = edge;
-            c.edgeHalfedge[edge++] = h;
-        }
+    for (Index h = 0; h < halfedges; ++h) {
+        if (c.edgeOf[h] != kNoIndex) continue;
+        c.edgeOf[h] = c.edgeCount();
+        if (c.twin[h] != kNoIndex) c.edgeOf[c.twin[h]] = c.edgeCount();
+        else ++c.boundaryEdgeCount;
+        c.edgeHalfedge.push_back(h);
     }
 
     c.outOffsets.assign(std::size_t(faces.vertexCount) + 1, 0);
@@ -150,13 +121,11 @@ void completeConnectivity(const Faces& faces, Connectivity& c) {
     std::vector<Index> fill(c.outOffsets.begin(), c.outOffsets.end() - 1);
     for (Index h = 0; h < halfedges; ++h) c.outgoing[fill[faces.verts[h]]++] = h;
 
-    // A vertex's valence: its outgoing half-edges, and the twinless ones that end at it.
-    c.valence.resize(faces.vertexCount);
-    const int vertexPieces = piecesFor(faces.vertexCount);
-#pragma omp parallel for num_threads(vertexPieces) schedule(static)
-    for (Index v = 0; v < faces.vertexCount; ++v) c.valence[v] = c.outOffsets[v + 1] - c.outOffsets[v];
-    for (const std::vector<Index>& twinless : boundary)
-        for (Index h : twinless) ++c.valence[faces.verts[c.next[h]]];
+    c.valence.assign(faces.vertexCount, 0);
+    for (Index h = 0; h < halfedges; ++h) {
+        ++c.valence[faces.verts[h]];
+        if (c.twin[h] == kNoIndex) ++c.valence[faces.verts[c.next[h]]];
+    }
 }
 
 Connectivity buildConnectivity(const Faces& faces, const Source& source) {

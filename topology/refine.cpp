@@ -51,51 +51,19 @@ BoundaryNeighbours boundaryNeighbours(const Faces& faces, const Connectivity& c,
     return found;
 }
 
-namespace {
-
-// Calls visit(e, corner, face, edgePoint) for every edge e of the parent (`c`), in edge order
-// within pieces on the OpenMP threads (connectivity_detail.h), with the child's first corner and
-// face made from e and its next edge point; visit moves them past what it makes. Interior edges
-// make a quad each, boundary edges a triangle, or two when they split (and an edge point), so a
-// piece knows where it starts from the boundary edges before it.
-template <class Visit>
-void forEachParentEdge(const Connectivity& c, Index firstEdgePoint, bool splitBoundary, Visit&& visit) {
-    const Index edges = c.edgeCount();
-    const int pieces = piecesFor(edges);
-    std::vector<Index> boundaryBefore(std::size_t(pieces) + 1, 0);
-#pragma omp parallel for num_threads(pieces) schedule(static, 1)
-    for (int p = 0; p < pieces; ++p) {
-        Index count = 0;
-        for (Index e = pieceBegin(edges, pieces, p), end = pieceBegin(edges, pieces, p + 1); e < end; ++e)
-            count += c.twin[c.edgeHalfedge[e]] == kNoIndex;
-        boundaryBefore[std::size_t(p) + 1] = count;
-    }
-    for (int p = 0; p < pieces; ++p) boundaryBefore[std::size_t(p) + 1] += boundaryBefore[std::size_t(p)];
-#pragma omp parallel for num_threads(pieces) schedule(static, 1)
-    for (int p = 0; p < pieces; ++p) {
-        const Index first = pieceBegin(edges, pieces, p), b = boundaryBefore[std::size_t(p)];
-        Index corner = 4 * (first - b) + (splitBoundary ? 6 : 3) * b, face = first + (splitBoundary ? b : 0);
-        Index edgePoint = firstEdgePoint + b;
-        for (Index e = first, end = pieceBegin(edges, pieces, p + 1); e < end; ++e) visit(e, corner, face, edgePoint);
-    }
-}
-
-}  // namespace
-
 Faces refineFaces(const Faces& faces, const Connectivity& c, bool splitBoundary) {
-    const Index oldVertices = faces.vertexCount, boundary = c.boundaryEdgeCount, edges = c.edgeCount();
+    const Index oldVertices = faces.vertexCount, boundary = c.boundaryEdgeCount;
     Faces child;
     child.vertexCount = oldVertices + faces.faceCount() + (splitBoundary ? boundary : 0);
-    // Every corner and offset written below, each by the edge that makes it.
-    child.offsets.resize(std::size_t(edges) + (splitBoundary ? boundary : 0) + 1);
-    child.offsets[0] = 0;
-    child.verts.resize(4 * std::size_t(edges - boundary) + (splitBoundary ? 6 : 3) * std::size_t(boundary));
-    forEachParentEdge(c, oldVertices + faces.faceCount(), splitBoundary, [&](Index e, Index& corner, Index& face, Index& edgePoint) {
-        const auto add = [&](std::initializer_list<Index> corners) {
-            for (Index v : corners) child.verts[corner++] = v;
-            child.offsets[++face] = corner;
-        };
-        const Index h = c.edgeHalfedge[e];
+    child.offsets.reserve(std::size_t(c.edgeCount()) + (splitBoundary ? boundary : 0) + 1);
+    child.verts.reserve(4 * std::size_t(c.edgeCount() - boundary) + (splitBoundary ? 6 : 3) * std::size_t(boundary));
+    // Corners appended one by one (Faces::addFace's range insert costs a call per face).
+    const auto add = [&child](std::initializer_list<Index> corners) {
+        for (Index v : corners) child.verts.push_back(v);
+        child.offsets.push_back(Index(child.verts.size()));
+    };
+    Index edgePoint = oldVertices + faces.faceCount();
+    for (Index h : c.edgeHalfedge) {
         const Index a = faces.verts[h], b = faces.verts[c.next[h]];
         const Index ff = oldVertices + c.faceOf[h];
         if (c.twin[h] == kNoIndex && splitBoundary) {
@@ -107,23 +75,22 @@ Faces refineFaces(const Faces& faces, const Connectivity& c, bool splitBoundary)
         } else {
             add({a, oldVertices + c.faceOf[c.twin[h]], b, ff});
         }
-    });
+    }
     return child;
 }
 
 namespace {
 
-// Writes face `face` of a level under construction, `corners` from corner k on: corners,
-// faceOf, next, and the face's end offset; k moves past them.
-void writeChildFace(Faces& cf, Connectivity& cc, Index face, Index& k, std::initializer_list<Index> corners) {
-    const Index size = Index(corners.size());
+// Appends face `corners` to a level under construction: corners, faceOf and next.
+void appendChildFace(Faces& cf, Connectivity& cc, Index& k, std::initializer_list<Index> corners) {
+    const Index face = Index(cf.offsets.size()) - 1, size = Index(corners.size());
     std::copy(corners.begin(), corners.end(), &cf.verts[k]);
     for (Index i = 0; i < size; ++i) {
         cc.faceOf[k + i] = face;
         cc.next[k + i] = k + (i + 1) % size;
     }
     k += size;
-    cf.offsets[face + 1] = k;
+    cf.offsets.push_back(k);
 }
 
 }  // namespace
@@ -154,17 +121,16 @@ Level refineLevelFrom(const Level& parent, bool splitBoundary, Level* consumed) 
     Faces& cf = child.faces;
     Connectivity& cc = child.connectivity;
     cf.vertexCount = oldVertices + pf.faceCount() + (splitBoundary ? boundary : 0);
-    cf.offsets.resize(std::size_t(edges) + (splitBoundary ? boundary : 0) + 1);
-    cf.offsets[0] = 0;
+    cf.offsets.reserve(std::size_t(edges) + (splitBoundary ? boundary : 0) + 1);
+    cf.offsets.assign(1, 0);
     cf.verts.resize(childHalfedges);
     cc.faceOf.resize(childHalfedges);
     cc.next.resize(childHalfedges);
     cc.twin.assign(childHalfedges, kNoIndex);
     std::vector<Index> toFace(pf.verts.size()), fromFace(pf.verts.size());  // per corner c
 
-    // Each edge writes its own child faces, and the entries of toFace and fromFace of its own
-    // half-edges: the pieces write apart.
-    forEachParentEdge(pc, oldVertices + pf.faceCount(), splitBoundary, [&](Index e, Index& k, Index& face, Index& edgePoint) {
+    Index k = 0, edgePoint = oldVertices + pf.faceCount();
+    for (Index e = 0; e < edges; ++e) {
         const Index h = pc.edgeHalfedge[e], t = pc.twin[h], nh = pc.next[h];
         const Index a = pf.verts[h], b = pf.verts[nh], ff = oldVertices + pc.faceOf[h];
         if (t == kNoIndex && splitBoundary) {  // [a, M, F(f)], [M, b, F(f)]
@@ -172,24 +138,22 @@ Level refineLevelFrom(const Level& parent, bool splitBoundary, Level* consumed) 
             cc.twin[k + 1] = k + 5;
             cc.twin[k + 5] = k + 1;
             toFace[nh] = k + 4;
-            writeChildFace(cf, cc, face++, k, {a, edgePoint, ff});
-            writeChildFace(cf, cc, face++, k, {edgePoint, b, ff});
+            appendChildFace(cf, cc, k, {a, edgePoint, ff});
+            appendChildFace(cf, cc, k, {edgePoint, b, ff});
             ++edgePoint;
         } else if (t == kNoIndex) {  // [a, b, F(f)]
             toFace[nh] = k + 1;
             fromFace[h] = k + 2;
-            writeChildFace(cf, cc, face++, k, {a, b, ff});
+            appendChildFace(cf, cc, k, {a, b, ff});
         } else {  // [a, F(g), b, F(f)]
             toFace[pc.next[t]] = k;
             fromFace[t] = k + 1;
             toFace[nh] = k + 2;
             fromFace[h] = k + 3;
-            writeChildFace(cf, cc, face++, k, {a, oldVertices + pc.faceOf[t], b, ff});
+            appendChildFace(cf, cc, k, {a, oldVertices + pc.faceOf[t], b, ff});
         }
-    });
-    const Index corners = Index(pf.verts.size());
-#pragma omp parallel for num_threads(piecesFor(corners)) schedule(static)
-    for (Index c = 0; c < corners; ++c) {
+    }
+    for (Index c = 0; c < pf.verts.size(); ++c) {
         cc.twin[toFace[c]] = fromFace[c];
         cc.twin[fromFace[c]] = toFace[c];
     }

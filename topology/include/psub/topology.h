@@ -241,11 +241,6 @@ Level refineLevel(const Level& parent, bool splitBoundary = false);
 // freed while the child is built, so that the step's peak holds the child and only part of
 // the parent (the largest refinements are bound by this peak).
 Level refineLevel(Level&& parent, bool splitBoundary = false);
-// refineLevel, refineFaces and buildConnectivity run their long loops in pieces, one per
-// OpenMP thread, from this many items on (edges, half-edges or vertices; 2^21 by default): the
-// same arrays on any thread count (docs/design.md). Process-wide; for tests.
-Index topologyPieceMinimum();
-void setTopologyPieceMinimum(Index items);
 
 // The levels of a refinement: levels[0] is the input; when `preprocessed`, levels[1] is the
 // paired-method quad mesh; every further level is one P-S step.
