@@ -577,7 +577,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             keepFallbackRows(out.tiled, std::move(leanRows), drawOf);
         else
             keepFallbackRows(out.tiled, out.perLevel, drawOf);
-        orderByWalkAndSetSurface(out.tiled, drawOf, parent.faces);
+        orderByWalkAndSetSurface(out.tiled, drawOf, parent.faces, lean);
         out.tiledMs += ms(start);
     }
     parent.connectivity = {};

@@ -105,8 +105,11 @@ inline bool mostlyFallback(const TiledTable& table) {
 }
 
 // The fallback in walk order, then the surface (both above). The surface depends only on the
-// finest points' order, so it is sorted beside orderLevelsByWalk, on a second thread where the
-// build has one.
-void orderByWalkAndSetSurface(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest);
+// finest points' order, so with `alongside` (and mostlyFallback) it is sorted beside
+// orderLevelsByWalk, on a second thread where the build has one. The lean build asks for it; the
+// full build, which holds the per-level table as well, does not: there the two's arrays side by
+// side raised the peak (Vulkan's `psub play data/cow.obj --levels 7`: 537-573 -> 561-580 MB) for
+// a start no shorter through the noise.
+void orderByWalkAndSetSurface(TiledTable& table, std::vector<std::uint32_t>& drawOf, const Faces& finest, bool alongside);
 
 }  // namespace psub

@@ -733,11 +733,11 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
     EXPECT_GT(fallbackPoints, 0u);  // tiles beside fallback rows, not only all-tile tables
 }
 
-// Where the fallback is most of the finest points, the build renumbers the levels in walk order
-// beside the faces' sort (two threads; docs/tiled.md, "The lean build"); on one thread one
-// after the other. The tables must be the
-// same: the cow and a 4 x 4 grid (no tile; the grid with the smooth boundary's split edges) and
-// Spot (tiles beside a fallback of three quarters), lean and full builds, on 1 and 2 threads.
+// Where the fallback is most of the finest points, the lean build renumbers the levels in walk
+// order beside the faces' sort (two threads; docs/tiled.md, "The lean build"); on one thread,
+// and in the full build, one after the other. The tables must be the same: the cow and a 4 x 4
+// grid (no tile; the grid with the smooth boundary's split edges) and Spot (tiles beside a
+// fallback of three quarters), lean and full builds, on 1 and 2 threads.
 TEST(Tiled, TheTableIsTheSameOnOneThreadAndTwo) {
     const int before = omp_get_max_threads();
     for (const char* name : {"cow.obj", "spot_control_mesh.obj", "grid4x4.obj"})
