@@ -152,7 +152,6 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
 
 namespace {
 
-
 // Per point of level k + 1 by its new number (`position`: old number -> new), the group
 // within level k of the row that writes it (`groups`, past the last, where no row does).
 std::vector<std::uint32_t> writerGroups(const PerLevelTable& rows, std::size_t k, const std::vector<std::uint32_t>& position) {
@@ -400,4 +399,3 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
 }
 
 }  // namespace psub
-

@@ -741,8 +741,8 @@ Faces facesInDrawingOrder(const Faces& finest, const std::vector<std::uint32_t>&
 }  // namespace
 
 void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<std::uint32_t>& drawOf) {
-    // The sort's arrays are freed before the surface's are made (the cow at 7 steps: 30 MB less
-    // at the peak).
+    // The sort's arrays are freed before the surface's are made (beside the levels' renumbering
+    // the cow's lean build at 7 steps peaked at 265 MB with them alive, 243 MB without).
     table.surface = buildSurfaceTable(facesInDrawingOrder(finest, drawOf, table.refinedCount));
 }
 
