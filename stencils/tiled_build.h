@@ -99,7 +99,7 @@ void sideBySide(bool together, First&& first, Second&& second) {
 // Whether the fallback is most of the finest points: the levels' renumbering then takes long
 // enough to run beside the faces' sort (otherwise the sort, partly on several threads itself, is
 // better left its threads: the 1M-face torus's build, whose fallback is small, was about 5 ms
-// slower side by side).
+// slower with the pieces side by side, the walk then beside the last step's rows too).
 inline bool mostlyFallback(const TiledTable& table) {
     return table.refinedCount - table.fallbackBegin >= table.refinedCount / 2;
 }
