@@ -108,27 +108,20 @@ void Pipelines::release() {
 }
 
 VkPipeline Pipelines::get(Kernel kernel, const Specialization& s) {
-    const auto [components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN, rowM,
-                tileSteps, listed, tileGrid, tileKeptSide, tileThreads, implicitDestination] = s.key();
-    const auto key = std::tuple(int(kernel), components, sourceStride, destinationStride, sourceWindowed,
-                                destinationWindowed, texels, rowN, rowM, tileSteps, listed, tileGrid, tileKeptSide,
-                                tileThreads, implicitDestination);
+    const auto values = s.values();
+    const auto key = std::pair(kernel, values);
     std::lock_guard guard(lock_);
     if (auto found = pipelines_.find(key); found != pipelines_.end()) return found->second;
 
-    constexpr std::uint32_t count = 14;
-    const std::uint32_t values[count] = {components,      sourceStride, destinationStride, VkBool32(sourceWindowed),
-                                         VkBool32(destinationWindowed), VkBool32(texels), rowN, rowM, tileSteps,
-                                         VkBool32(listed), tileGrid, tileKeptSide, tileThreads,
-                                         VkBool32(implicitDestination)};
+    constexpr std::uint32_t count = std::uint32_t(std::tuple_size_v<decltype(values)>);
+    constexpr std::uint32_t ids[count] = {PSUB_SPEC_COMPONENTS,      PSUB_SPEC_SOURCE_STRIDE,        PSUB_SPEC_DESTINATION_STRIDE,
+                                          PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED, PSUB_SPEC_TEXELS,
+                                          PSUB_SPEC_ROW_N,           PSUB_SPEC_ROW_M,                PSUB_SPEC_TILE_STEPS,
+                                          PSUB_SPEC_LISTED,          PSUB_SPEC_TILE_GRID,            PSUB_SPEC_TILE_NORMALS,
+                                          PSUB_SPEC_TILE_THREADS,    PSUB_SPEC_IMPLICIT_DESTINATION};
     VkSpecializationMapEntry entries[count];
-    const std::uint32_t ids[count] = {PSUB_SPEC_COMPONENTS,      PSUB_SPEC_SOURCE_STRIDE,        PSUB_SPEC_DESTINATION_STRIDE,
-                                      PSUB_SPEC_SOURCE_WINDOWED, PSUB_SPEC_DESTINATION_WINDOWED, PSUB_SPEC_TEXELS,
-                                      PSUB_SPEC_ROW_N,           PSUB_SPEC_ROW_M,                PSUB_SPEC_TILE_STEPS,
-                                      PSUB_SPEC_LISTED,          PSUB_SPEC_TILE_GRID,            PSUB_SPEC_TILE_NORMALS,
-                                      PSUB_SPEC_TILE_THREADS,    PSUB_SPEC_IMPLICIT_DESTINATION};
     for (std::uint32_t i = 0; i < count; ++i) entries[i] = {ids[i], 4 * i, 4};
-    VkSpecializationInfo specialization{count, entries, sizeof values, values};
+    VkSpecializationInfo specialization{count, entries, sizeof values, values.data()};
     VkComputePipelineCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
     info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;

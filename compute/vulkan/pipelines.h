@@ -7,11 +7,12 @@
 #include "device.h"
 #include "shaders.h"
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <mutex>
 #include <span>
-#include <tuple>
+#include <utility>
 #include <vector>
 
 namespace psub::vulkan {
@@ -45,9 +46,12 @@ struct Specialization {
     uint tileThreads = PSUB_WORKGROUP_SIZE;  // workgroup tile kernel: its workgroup's invocations
     bool implicitDestination = false;        // level kernel: row r writes element rowBase + r
 
-    auto key() const {
-        return std::tuple(components, sourceStride, destinationStride, sourceWindowed, destinationWindowed, texels, rowN,
-                          rowM, tileSteps, listed, tileGrid, tileKeptSide, tileThreads, implicitDestination);
+    // The specialization constants' values, in the order of kSpecializationIds (pipelines.cpp);
+    // with the kernel, the pipeline cache's key.
+    std::array<uint, 14> values() const {
+        return {components, sourceStride, destinationStride, uint(sourceWindowed), uint(destinationWindowed),
+                uint(texels), rowN, rowM, tileSteps, uint(listed), tileGrid, tileKeptSide, tileThreads,
+                uint(implicitDestination)};
     }
 };
 
@@ -72,7 +76,7 @@ private:
     VkPipelineCache cache_ = VK_NULL_HANDLE;
     VkShaderModule modules_[kKernelCount] = {};
     std::mutex lock_;
-    std::map<std::tuple<int, uint, uint, uint, bool, bool, bool, uint, uint, uint, bool, uint, uint, uint, bool>, VkPipeline> pipelines_;
+    std::map<std::pair<Kernel, std::array<uint, 14>>, VkPipeline> pipelines_;
 };
 
 // The context's compute pipelines, made on first use (thread-safe) and kept with the context.
