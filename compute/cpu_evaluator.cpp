@@ -110,6 +110,23 @@ void evaluateGroupsShare(const PerLevelTable& table, std::size_t k, std::uint64_
     }
 }
 
+// Whether no VertexFromFacePoints row of the finest level reads its last vertex: those rows
+// then read the output (which has nothing past that vertex) 16 bytes a vertex, unchecked. The
+// tiled form's walk order puts a vertex point last, which only rows of the level after could
+// read (the cow at 7 steps: its 548,593 such rows 25% dearer a row checked, a quarter of the
+// rows' time; bench/README.md, "Session 34").
+bool finestOwnReadsWide(const PerLevelTable& table) {
+    if (table.levels.empty()) return false;
+    const StencilLevel& level = table.levels.back();
+    for (std::uint64_t g = facePointGroupsBegin(table, level); g < level.groupEnd; ++g) {
+        const RowGroup& group = table.groups[g];
+        const auto first = table.indices.begin() + std::ptrdiff_t(group.indexBegin);
+        const auto last = first + std::ptrdiff_t(group.rowCount * group.width);
+        if (std::find(first, last, level.destinationCount - 1) != last) return false;
+    }
+    return true;
+}
+
 // This thread's rows of level k: the rows that read the parent level, then (after a barrier:
 // other threads' face points) the VertexFromFacePoints rows, which read the level's own points.
 template <class T>
@@ -191,6 +208,7 @@ void CpuEvaluator<T>::allocate() {
         total += std::uint64_t(perLevel.levels[k].destinationCount) * width + kLevelPadding;
     }
     if (form_ != TableForm::Factorized) levels_.resize(total);
+    finestOwnReadsWide_ = finestOwnReadsWide(perLevel);
     allQuads_ = surface.faceVerts.size() == 4 * (surface.faceOffsets.size() - 1);
     for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
         allQuads_ = surface.faceOffsets[f] == 4 * f;
@@ -407,7 +425,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels);
+        evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels || finestOwnReadsWide_);
 #pragma omp barrier
     }
 }
@@ -450,7 +468,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels);
+            evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels || finestOwnReadsWide_);
 #pragma omp barrier
         }
         T* scratch = threadScratch<T>(scratchSize);

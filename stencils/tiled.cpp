@@ -759,6 +759,12 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
                            const Faces& finest, TiledPlan plan) {
     if (plan.doubleSteps > 3 || plan.baseLevel + 2 * plan.doubleSteps != perLevel.levels.size())
         throw std::invalid_argument("buildTiledTable: the plan does not fit the per-level table");
+    // The walk order follows each level's rows as the rules built them (a vertex row's sources
+    // in the parent level).
+    for (const RowGroup& g : perLevel.groups)
+        if (g.kind == RowKind::VertexFromFacePoints)
+            throw std::invalid_argument("buildTiledTable: the table's vertex rows read face points "
+                                        "(vertexRowsFromFacePoints); build the tiled form first, then rewrite each");
     TiledTable table;
     table.controlCount = perLevel.controlCount;
     table.baseLevel = plan.baseLevel;

@@ -3,6 +3,7 @@
 #include "psub/evaluator.h"
 #include "psub/rules.h"
 #include "psub/stencils.h"
+#include "psub/tiled.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -14,6 +15,11 @@
 #include <cstdint>
 #include <memory>
 #include <random>
+#include <span>
+#include <stdexcept>
+
+#include <sys/mman.h>
+#include <unistd.h>
 
 namespace psub {
 namespace {
@@ -218,6 +224,70 @@ TEST(Evaluator, RowsFromAPaddedSourceAreTheSameBits) {
 // cow at 3 steps, as built and with vertex points from face points: the kernel's rows without
 // diagonals skip the additions of 0 (cpu_kernels.cpp, `Lean`), which may change only the sign of
 // a zero, and their last addition (diagonal x 0 = +0) makes every zero +0 as the definition's.
+// A float buffer whose last value ends a page, the page after it unreadable: a read past the
+// buffer (a 16-byte load of its last vertex) ends the test with a fault.
+class GuardedFloats {
+public:
+    explicit GuardedFloats(std::size_t count) : count_(count) {
+        const std::size_t page = std::size_t(sysconf(_SC_PAGESIZE));
+        bytes_ = (count * sizeof(float) + page - 1) / page * page + page;
+        void* at = mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (at == MAP_FAILED) throw std::runtime_error("mmap failed");
+        base_ = static_cast<char*>(at);
+        if (mprotect(base_ + bytes_ - page, page, PROT_NONE) != 0) throw std::runtime_error("mprotect failed");
+    }
+    ~GuardedFloats() { munmap(base_, bytes_); }
+    GuardedFloats(const GuardedFloats&) = delete;
+    GuardedFloats& operator=(const GuardedFloats&) = delete;
+    std::span<float> span() const {
+        const std::size_t page = std::size_t(sysconf(_SC_PAGESIZE));
+        return {reinterpret_cast<float*>(base_ + bytes_ - page) - count_, count_};
+    }
+
+private:
+    std::size_t count_, bytes_;
+    char* base_;
+};
+
+// Whether a VertexFromFacePoints row of the table's finest level reads its last vertex.
+bool finestVertexRowsReadTheLastVertex(const PerLevelTable& table) {
+    const StencilLevel& level = table.levels.back();
+    for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
+        const RowGroup& group = table.groups[g];
+        if (group.kind != RowKind::VertexFromFacePoints) continue;
+        for (std::uint64_t i = 0; i < group.rowCount * group.width; ++i)
+            if (table.indices[group.indexBegin + i] == level.destinationCount - 1) return true;
+    }
+    return false;
+}
+
+// The finest level's vertex rows read the output: 16 bytes a vertex unchecked only where none of
+// them reads its last vertex (the tiled form's walk order), checked where one does (the
+// per-level form's canonical order ends with a face point). Neither reads past the output, on
+// one thread or two.
+TEST(Evaluator, TheFinestVertexRowsNeverReadPastTheOutput) {
+    Refined r = refineModel(test::dataPath("cow.obj"), 3);
+    TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    ASSERT_GT(vertexRowsFromFacePoints(r.perLevel), 0u);
+    ASSERT_GT(vertexRowsFromFacePoints(tiled.rows), 0u);
+    EXPECT_THROW(buildTiledTable(r.hierarchy, r.perLevel), std::invalid_argument);  // a rewritten table
+    ASSERT_TRUE(finestVertexRowsReadTheLastVertex(r.perLevel));
+    ASSERT_FALSE(finestVertexRowsReadTheLastVertex(tiled.rows));
+    const std::vector<float> control(r.loaded.mesh.positions.begin(), r.loaded.mesh.positions.end());
+    for (int threads : {1, 2}) {
+        CpuEvaluator<float> perLevel(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, threads);
+        CpuEvaluator<float> tiledForm(tiled, 3, threads);
+        for (CpuEvaluator<float>* evaluator : {&perLevel, &tiledForm}) {
+            const std::size_t count = 3 * std::size_t(evaluator->refinedCount());
+            std::vector<float> expected(count);
+            evaluator->evaluate(control, expected);
+            const GuardedFloats guarded(count);
+            evaluator->evaluate(control, guarded.span());
+            EXPECT_TRUE(std::equal(expected.begin(), expected.end(), guarded.span().begin())) << threads;
+        }
+    }
+}
+
 TEST(Evaluator, RowsGiveTheDefinitionsBitsWithZerosOfBothSigns) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 3);
     PerLevelTable facePoints = r.perLevel;

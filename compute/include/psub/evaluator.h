@@ -26,8 +26,10 @@ struct BufferLayout {
 // order): `source` holds the parent level's vertices, `destination` the child level's.
 // VertexFromFacePoints rows (a level's last groups) read `destination`: the level's rows before
 // them must have been written (on one thread, the rows in table order do that).
-// `sourcePadded` (`destinationPadded`): at least one more value can be read past the source's
-// (destination's) last vertex (the kernel then reads every vertex 16 bytes at a time, untested).
+// `sourcePadded` (`destinationPadded`): every vertex the rows read from the source (the
+// destination) can be read 16 bytes at a time: at least one more value can be read past its last
+// vertex, or (the destination) no VertexFromFacePoints row reads that vertex. The kernel then
+// reads them so, untested.
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sourceLayout, T* destination, BufferLayout destinationLayout,
@@ -200,6 +202,9 @@ private:
     int threads_;
     std::vector<T> levels_;                 // intermediate levels, back to back
     std::vector<std::uint64_t> levelBase_;  // offset of each intermediate level in levels_
+    // No VertexFromFacePoints row of the finest level reads its last vertex, so they may read
+    // every vertex of the output 16 bytes at a time (finestOwnReadsWide).
+    bool finestOwnReadsWide_ = false;
     std::vector<T> faceNormals_;  // 4 per face, the 4th 0 (empty until the two passes first run)
     std::vector<T> ringNormals_;  // the tiles' ring faces' normals, 4 each in ringFaces order (restWindow_)
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f

@@ -74,6 +74,8 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
 // level N - 2 is `coarse` (the same object as `base` may be; its step to level N - 1 split
 // boundary edges when `coarseSplits`) and whose finest faces are `finest`. The two levels'
 // topology is only read here, never kept; the finest level's topology is not needed.
+// `perLevel` as the rules built it: a table rewritten by vertexRowsFromFacePoints is refused
+// (std::invalid_argument); rewrite the tiled form's rows after (refine does).
 TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, const Level& coarse, bool coarseSplits,
                            const Faces& finest, TiledPlan plan);
 TiledTable buildTiledTable(const Hierarchy& hierarchy, const PerLevelTable& perLevel,
