@@ -218,12 +218,6 @@ TEST(Evaluator, RowsFromAPaddedSourceAreTheSameBits) {
     }
 }
 
-// The float rows give the bits of their definition, row by row: centre x source + edge x the
-// sum of the edge sources + diagonal x the sum of the diagonals, every sum started from 0, in
-// that order (RowGroup, psub/tables.h). Sources of +0, -0 and other values, every level of the
-// cow at 3 steps, as built and with vertex points from face points: the kernel's rows without
-// diagonals skip the additions of 0 (cpu_kernels.cpp, `Lean`), which may change only the sign of
-// a zero, and their last addition (diagonal x 0 = +0) makes every zero +0 as the definition's.
 // A float buffer whose last value ends a page, the page after it unreadable: a read past the
 // buffer (a 16-byte load of its last vertex) ends the test with a fault.
 class GuardedFloats {
@@ -288,6 +282,12 @@ TEST(Evaluator, TheFinestVertexRowsNeverReadPastTheOutput) {
     }
 }
 
+// The float rows give the bits of their definition, row by row: centre x source + edge x the
+// sum of the edge sources + diagonal x the sum of the diagonals, every sum started from 0, in
+// that order (RowGroup, psub/tables.h). Sources of +0, -0 and other values, every level of the
+// cow at 3 steps, as built and with vertex points from face points: the kernel's rows without
+// diagonals skip the additions of 0 (cpu_kernels.cpp, `Lean`), which may change only the sign of
+// a zero, and their last addition (diagonal x 0 = +0) makes every zero +0 as the definition's.
 TEST(Evaluator, RowsGiveTheDefinitionsBitsWithZerosOfBothSigns) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 3);
     PerLevelTable facePoints = r.perLevel;

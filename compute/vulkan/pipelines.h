@@ -46,8 +46,8 @@ struct Specialization {
     uint tileThreads = PSUB_WORKGROUP_SIZE;  // workgroup tile kernel: its workgroup's invocations
     bool implicitDestination = false;        // level kernel: row r writes element rowBase + r
 
-    // The specialization constants' values, in the order of kSpecializationIds (pipelines.cpp);
-    // with the kernel, the pipeline cache's key.
+    // The specialization constants' values, in the order of their ids in Pipelines::get; with
+    // the kernel, the pipeline cache's key.
     std::array<uint, 14> values() const {
         return {components, sourceStride, destinationStride, uint(sourceWindowed), uint(destinationWindowed),
                 uint(texels), rowN, rowM, tileSteps, uint(listed), tileGrid, tileKeptSide, tileThreads,
