@@ -92,21 +92,19 @@ std::uint64_t facePointGroupsBegin(const PerLevelTable& table, const StencilLeve
 // points, the other most vertex points).
 template <class T>
 void evaluateGroupsShare(const PerLevelTable& table, std::size_t k, std::uint64_t groupBegin, std::uint64_t groupEnd,
-                         const T* source, BufferLayout layout, T* destination, bool sourcePadded, bool destinationPadded) {
+                         const T* source, BufferLayout layout, T* destination, RowReads reads) {
     const StencilLevel& level = table.levels[k];
     const bool regionShares = (table.regions > 1 && k < table.regionLevels) || k >= table.walkFrom;
     if (!regionShares || omp_get_num_threads() == 1) {
         const auto [begin, end] = shareByWork(table, level, groupBegin, groupEnd);
-        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end, sourcePadded,
-                                 destinationPadded);
+        return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end, reads);
     }
     for (std::uint64_t g = groupBegin; g < groupEnd; ++g) {
         const RowGroup& group = table.groups[g];
         const auto [begin, end] = share(group.rowCount);
         const std::uint64_t first = group.rowBegin - level.rowBegin;
         if (begin < end)
-            evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, sourcePadded,
-                              destinationPadded);
+            evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, reads);
     }
 }
 
@@ -131,13 +129,13 @@ bool finestOwnReadsWide(const PerLevelTable& table) {
 // other threads' face points) the VertexFromFacePoints rows, which read the level's own points.
 template <class T>
 void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
-                        T* destination, bool sourcePadded, bool destinationPadded) {
+                        T* destination, RowReads reads) {
     const StencilLevel& level = table.levels[k];
     const std::uint64_t split = facePointGroupsBegin(table, level);
-    evaluateGroupsShare(table, k, level.groupBegin, split, source, layout, destination, sourcePadded, destinationPadded);
+    evaluateGroupsShare(table, k, level.groupBegin, split, source, layout, destination, reads);
     if (split == level.groupEnd) return;
 #pragma omp barrier
-    evaluateGroupsShare(table, k, split, level.groupEnd, source, layout, destination, sourcePadded, destinationPadded);
+    evaluateGroupsShare(table, k, split, level.groupEnd, source, layout, destination, reads);
 }
 
 // Threads worth starting for `values` output values: a parallel region and its barriers cost
@@ -209,12 +207,21 @@ void CpuEvaluator<T>::allocate() {
     }
     if (form_ != TableForm::Factorized) levels_.resize(total);
     finestOwnReadsWide_ = finestOwnReadsWide(perLevel);
+    if (std::is_same_v<T, float> && width == 3 && form_ != TableForm::Factorized) narrow_ = narrowRows(perLevel);
     allQuads_ = surface.faceVerts.size() == 4 * (surface.faceOffsets.size() - 1);
     for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
         allQuads_ = surface.faceOffsets[f] == 4 * f;
     planNormalWindow();
     planRestWindow();
     if (!window_.planned() && !restWindow_.planned()) needFaceNormals();
+}
+
+// How level k's rows read: every level after the first from a padded level of levels_, every
+// level but the finest into one, the finest where its vertex rows allow (finestOwnReadsWide);
+// with the narrow indices where they were made.
+template <class T>
+RowReads CpuEvaluator<T>::rowReads(std::size_t k) const {
+    return {k > 0, k + 1 < perLevel_.levels.size() || finestOwnReadsWide_, narrow_.firstBlock.empty() ? nullptr : &narrow_};
 }
 
 // A normal per face (padded to 4: one aligned load each), for the two passes: allocated at
@@ -425,7 +432,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels || finestOwnReadsWide_);
+        evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k));
 #pragma omp barrier
     }
 }
@@ -468,7 +475,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            evaluateLevelShare(perLevel_, k, source, packed, destination, k > 0, k + 1 < levels || finestOwnReadsWide_);
+            evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k));
 #pragma omp barrier
         }
         T* scratch = threadScratch<T>(scratchSize);

@@ -14,6 +14,24 @@
 namespace psub {
 namespace {
 
+#if defined(__SSE2__)
+// One group's slice of NarrowRows (psub/evaluator.h): its rows' offsets and its blocks' bases,
+// or nulls.
+struct NarrowGroup {
+    const std::uint64_t* offsets = nullptr;
+    const std::uint32_t* bases = nullptr;
+    const std::uint32_t* firstDestination = nullptr;
+};
+
+NarrowGroup narrowGroup(const PerLevelTable& table, const RowGroup& g, const NarrowRows* narrow) {
+    if (!narrow) return {};
+    const std::uint32_t first = narrow->firstBlock[std::size_t(&g - table.groups.data())];
+    if (first == kNoNarrowRows) return {};
+    return {narrow->offsets.data() + std::uint64_t(kNarrowBlock) * first, narrow->bases.data() + 4 * std::uint64_t(first),
+            narrow->firstDestination.data() + first};
+}
+#endif
+
 // Sums `count` source elements listed in `ix` into acc (fixed width W, or `length` when W=0).
 template <class T, int W>
 inline void addElements(T* acc, const std::uint32_t* ix, std::uint32_t count, const T* source,
@@ -65,10 +83,13 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
 // 0 + it. Adding 0 changes nothing but the sign of a zero (0 + -0 = +0), and the row's last
 // addition, of diagonal x 0 = +0, turns every zero positive anyway, so the bits are the same
 // (the cow at 7 steps: 4.2-4.3 against 4.4-4.6 ms a frame on one thread).
+// With `narrow` (a group's NarrowRows, Padded3 and Lean rows of four sources, packed
+// destinations) each block of kNarrowBlock rows that fits reads its sources' 16-bit offsets
+// from their bases, the same loads and operations in the same order: the same bits.
 template <int N, int M, bool Padded3, bool Lean = false>
 void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                     const float* source, BufferLayout sl, std::uint32_t sourceCount, float* destination,
-                    BufferLayout dl, bool ascending) {
+                    BufferLayout dl, bool ascending, NarrowGroup narrow) {
     const __m128 centre = _mm_set1_ps(float(g.centre)), edge = _mm_set1_ps(float(g.edge)),
                  diagonal = _mm_set1_ps(float(g.diagonal));
     const std::uint32_t n = N >= 0 ? std::uint32_t(N) : g.n, m = M >= 0 ? std::uint32_t(M) : g.m;
@@ -113,30 +134,65 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     // next row's vertex, written next by this thread (packed destinations only).
     // Forced inline, as the lambdas above: called as functions from it, the rows reloaded every
     // value they captured, from memory, each row (2x slower).
-    const auto consecutive = [&](std::uint64_t begin, std::uint64_t end) __attribute__((always_inline)) {
+    const auto consecutive = [&](std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {
         float* out = destination + std::size_t(destinations[begin]) * dl.stride + dl.offset;
         if (dl.stride == 3) {
-            for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, row(r));
-            store3(out, row(end - 1));
+            for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, value(r));
+            store3(out, value(end - 1));
         } else {
-            for (std::uint64_t r = begin; r < end; ++r, out += dl.stride) store3(out, row(r));
+            for (std::uint64_t r = begin; r < end; ++r, out += dl.stride) store3(out, value(r));
         }
     };
-    if (ascending && destinations[r1 - 1] - destinations[r0] == r1 - 1 - r0) return consecutive(r0, r1);
     // Ascending with gaps (the tiled form's finest level, grouped within chunks of its walk:
-    // docs/tiled.md, "Output order"): blocks of kConsecutiveBlock rows whose destinations are
-    // consecutive are stored as above, the others one by one.
+    // docs/tiled.md, "Output order"): blocks whose destinations are consecutive are stored as
+    // above, the others one by one.
+    const auto block = [&](std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {
+        if (destinations[end - 1] - destinations[begin] == end - 1 - begin) return consecutive(begin, end, value);
+        for (std::uint64_t r = begin; r < end; ++r)
+            store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, value(r));
+    };
+    if constexpr (Padded3 && Lean && N == 3 && M == 0) {
+        if (narrow.offsets && dl.stride == 3) {
+            for (std::uint64_t b = r0 / kNarrowBlock; b * kNarrowBlock < r1; ++b) {
+                const std::uint64_t begin = std::max(r0, b * kNarrowBlock), end = std::min(r1, (b + 1) * kNarrowBlock);
+                // A block's consecutive destinations from its first, none read.
+                const auto narrowBlock = [&](auto&& value) __attribute__((always_inline)) {
+                    const std::uint32_t first = narrow.firstDestination[b];
+                    if (first == kScattered) {
+                        for (std::uint64_t r = begin; r < end; ++r)
+                            store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, value(r));
+                        return;
+                    }
+                    float* out = destination + (std::size_t(first) + (begin - b * kNarrowBlock)) * 3 + dl.offset;
+                    for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, value(r));
+                    store3(out, value(end - 1));
+                };
+                const std::uint32_t* bases = narrow.bases + 4 * b;
+                if (bases[0] == kWideBlock) {
+                    narrowBlock(row);
+                    continue;
+                }
+                const float *s0 = source + 3 * std::size_t(bases[0]), *s1 = source + 3 * std::size_t(bases[1]),
+                            *s2 = source + 3 * std::size_t(bases[2]), *s3 = source + 3 * std::size_t(bases[3]);
+                const auto narrowRow = [&](std::uint64_t r) __attribute__((always_inline)) {
+                    const std::uint64_t offsets = narrow.offsets[r];
+                    const std::uint32_t low = std::uint32_t(offsets), high = std::uint32_t(offsets >> 32);
+                    __m128 edges = _mm_loadu_ps(s1 + 3 * std::size_t(low >> 16));
+                    edges = _mm_add_ps(edges, _mm_loadu_ps(s2 + 3 * std::size_t(high & 0xffff)));
+                    edges = _mm_add_ps(edges, _mm_loadu_ps(s3 + 3 * std::size_t(high >> 16)));
+                    const __m128 first = _mm_loadu_ps(s0 + 3 * std::size_t(low & 0xffff));
+                    return _mm_add_ps(_mm_add_ps(_mm_mul_ps(centre, first), _mm_mul_ps(edge, edges)), diagonalTerm);
+                };
+                narrowBlock(narrowRow);
+            }
+            return;
+        }
+    }
+    if (ascending && destinations[r1 - 1] - destinations[r0] == r1 - 1 - r0) return consecutive(r0, r1, row);
     if (ascending && dl.stride == 3) {
         constexpr std::uint64_t kConsecutiveBlock = 64;
-        for (std::uint64_t begin = r0; begin < r1; begin += kConsecutiveBlock) {
-            const std::uint64_t end = std::min(begin + kConsecutiveBlock, r1);
-            if (destinations[end - 1] - destinations[begin] == end - 1 - begin) {
-                consecutive(begin, end);
-                continue;
-            }
-            for (std::uint64_t r = begin; r < end; ++r)
-                store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, row(r));
-        }
+        for (std::uint64_t begin = r0; begin < r1; begin += kConsecutiveBlock)
+            block(begin, std::min(begin + kConsecutiveBlock, r1), row);
         return;
     }
     if (dl.stride == 3 && dl.offset == 0) {  // packed: the stride known
@@ -151,7 +207,8 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
 template <class T, int W>
 void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                           const T* source, BufferLayout sl, std::uint32_t sourceCount, T* destination,
-                          BufferLayout dl, [[maybe_unused]] bool ascending, [[maybe_unused]] bool sourcePadded) {
+                          BufferLayout dl, [[maybe_unused]] bool ascending, [[maybe_unused]] bool sourcePadded,
+                          [[maybe_unused]] const NarrowRows* narrow) {
 #if defined(__SSE2__)
     if constexpr (std::is_same_v<T, float> && W == 3) {
         // Untested loads: the cow's frame at 7 steps a fifth shorter (docs/design.md).
@@ -161,11 +218,13 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
         const bool lean = g.n > 0 && g.m == 0 && !std::signbit(g.diagonal);
         const auto apply = [&]<int N, int M>() {
             if constexpr (N > 0 && M == 0) {
-                if (lean && padded3) return applyGroupSse3<N, M, true, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
-                if (lean) return applyGroupSse3<N, M, false, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+                if (lean && padded3)
+                    return applyGroupSse3<N, M, true, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl,
+                                                            ascending, narrowGroup(table, g, narrow));
+                if (lean) return applyGroupSse3<N, M, false, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {});
             }
-            if (padded3) return applyGroupSse3<N, M, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
-            applyGroupSse3<N, M, false>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending);
+            if (padded3) return applyGroupSse3<N, M, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {});
+            applyGroupSse3<N, M, false>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {});
         };
         if (g.n == 3 && g.m == 0) return apply.template operator()<3, 0>();
         if (g.n == 4 && g.m == 4) return apply.template operator()<4, 4>();
@@ -188,7 +247,7 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
 template <class T, int W>
 void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* source,
                BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
-               std::uint64_t rowEnd, bool sourcePadded, bool destinationPadded) {
+               std::uint64_t rowEnd, RowReads reads) {
     // A region-ordered table's last level ordered (its numbering kept) lists each group's rows
     // by region, not by destination.
     const bool ascending = table.regions == 1 || &level != &table.levels[table.regionLevels - 1];
@@ -199,10 +258,10 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         if (begin >= end) continue;
         if (g.kind == RowKind::VertexFromFacePoints)  // reads the level's own face points
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, destination, dl, level.destinationCount,
-                                       destination, dl, ascending, destinationPadded);
+                                       destination, dl, ascending, reads.destinationPadded, reads.narrow);
         else
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
-                                       destination, dl, ascending, sourcePadded);
+                                       destination, dl, ascending, reads.sourcePadded, reads.narrow);
     }
 }
 
@@ -237,14 +296,14 @@ void factorizedRows(const FactorizedTable& table, const T* source, BufferLayout 
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sl, T* destination, BufferLayout dl, std::uint64_t rowBegin,
-                       std::uint64_t rowEnd, bool sourcePadded, bool destinationPadded) {
+                       std::uint64_t rowEnd, RowReads reads) {
     assert(sl.valid() && dl.valid() && sl.length == dl.length && level < table.levels.size());
     const StencilLevel& l = table.levels[level];
     if (sl.length == 3)
-        return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded, destinationPadded);
+        return levelRows<T, 3>(table, l, source, sl, destination, dl, rowBegin, rowEnd, reads);
     if (sl.length == 4)
-        return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded, destinationPadded);
-    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd, sourcePadded, destinationPadded);
+        return levelRows<T, 4>(table, l, source, sl, destination, dl, rowBegin, rowEnd, reads);
+    levelRows<T, 0>(table, l, source, sl, destination, dl, rowBegin, rowEnd, reads);
 }
 
 template <class T>
@@ -258,9 +317,9 @@ void evaluateFactorizedRows(const FactorizedTable& table, const T* source, Buffe
 }
 
 template void evaluateLevelRows<float>(const PerLevelTable&, std::size_t, const float*, BufferLayout,
-                                       float*, BufferLayout, std::uint64_t, std::uint64_t, bool, bool);
+                                       float*, BufferLayout, std::uint64_t, std::uint64_t, RowReads);
 template void evaluateLevelRows<double>(const PerLevelTable&, std::size_t, const double*, BufferLayout,
-                                        double*, BufferLayout, std::uint64_t, std::uint64_t, bool, bool);
+                                        double*, BufferLayout, std::uint64_t, std::uint64_t, RowReads);
 template void evaluateFactorizedRows<float>(const FactorizedTable&, const float*, BufferLayout, float*,
                                             BufferLayout, std::uint32_t, std::uint32_t);
 template void evaluateFactorizedRows<double>(const FactorizedTable&, const double*, BufferLayout,

@@ -209,8 +209,8 @@ TEST(Evaluator, RowsFromAPaddedSourceAreTheSameBits) {
         const std::uint64_t rows = level.rowEnd - level.rowBegin;
         std::vector<float> expected(3 * std::size_t(level.destinationCount), -1), actual(expected.size() + 1, -2);
         actual.back() = std::nanf("");
-        evaluateLevelRows(*table, k, exact.data(), packed, expected.data(), packed, 0, rows, false, false);
-        evaluateLevelRows(*table, k, padded.data(), packed, actual.data(), packed, 0, rows, true, true);
+        evaluateLevelRows(*table, k, exact.data(), packed, expected.data(), packed, 0, rows);
+        evaluateLevelRows(*table, k, padded.data(), packed, actual.data(), packed, 0, rows, {.sourcePadded = true, .destinationPadded = true});
         ASSERT_TRUE(std::isnan(actual.back()));
         for (std::size_t i = 0; i < expected.size(); ++i)
             ASSERT_EQ(std::bit_cast<std::uint32_t>(actual[i]), std::bit_cast<std::uint32_t>(expected[i]))
@@ -278,6 +278,86 @@ TEST(Evaluator, TheFinestVertexRowsNeverReadPastTheOutput) {
             const GuardedFloats guarded(count);
             evaluator->evaluate(control, guarded.span());
             EXPECT_TRUE(std::equal(expected.begin(), expected.end(), guarded.span().begin())) << threads;
+        }
+    }
+}
+
+// Narrow rows (psub/evaluator.h): a hand-made level of 200 face rows over 70,000 sources, in
+// four blocks: one whose sources fit 16-bit offsets, one with a source 69,000 past its
+// position's least (wide: read from `indices`), one whose destinations have a gap (scattered:
+// read from `destinations`), and a last one of 8 rows. Every row decodes to its indices, and the
+// kernel gives the bits it gives without them for every range of rows, whole blocks or not.
+TEST(Evaluator, NarrowRowsReadTheRowsIndicesAndGiveTheirBits) {
+    constexpr std::uint32_t kRows = 200, kSources = 70000;
+    PerLevelTable table;
+    table.controlCount = kSources;
+    table.groups.push_back({RowKind::FaceQuad, 3, 0, 4, 0, kRows, 0, 0.25, 0.25, 0.0});
+    std::mt19937 random(11);
+    for (std::uint32_t r = 0; r < kRows; ++r) {
+        table.destinations.push_back(r < 160 ? r : r + 1);  // a gap in the third block
+        for (std::uint32_t j = 0; j < 4; ++j) table.indices.push_back(1000 + 7000 * j + std::uint32_t(random() % 6000));
+    }
+    table.indices[4 * 70 + 2] = 0, table.indices[4 * 71 + 2] = 69000;  // the second block is wide
+    table.levels.push_back({kSources, kRows + 1, 0, 1, 0, kRows});
+    const NarrowRows narrow = narrowRows(table);
+    ASSERT_EQ(narrow.firstBlock, std::vector<std::uint32_t>{0});
+    ASSERT_EQ(narrow.bases.size(), 16u);
+    EXPECT_EQ(narrow.bases[4], kWideBlock);
+    EXPECT_EQ(narrow.firstDestination, (std::vector<std::uint32_t>{0, 64, kScattered, 193}));
+    for (std::uint32_t r = 0; r < kRows; ++r) {
+        const std::uint32_t* bases = narrow.bases.data() + 4 * (r / kNarrowBlock);
+        if (bases[0] == kWideBlock) continue;
+        for (std::uint32_t j = 0; j < 4; ++j)
+            EXPECT_EQ(bases[j] + ((narrow.offsets[r] >> (16 * j)) & 0xffff), table.indices[4 * r + j]) << r << " " << j;
+    }
+    std::vector<float> source(3 * std::size_t(kSources) + 1);
+    for (float& x : source) x = std::ldexp(float(random() % 2001) - 1000.0f, -7);
+    const BufferLayout packed{0, 3, 3};
+    for (const auto& [begin, end] : std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, kRows}, {0, 1}, {5, 70}, {63, 130}, {129, 199}, {150, 200}}) {
+        SCOPED_TRACE(testing::Message() << "rows " << begin << " to " << end);
+        std::vector<float> expected(3 * (kRows + 1) + 1, -1), actual(expected.size(), -1);
+        evaluateLevelRows(table, 0, source.data(), packed, expected.data(), packed, begin, end);
+        evaluateLevelRows(table, 0, source.data(), packed, actual.data(), packed, begin, end,
+                          {.sourcePadded = true, .destinationPadded = true, .narrow = &narrow});
+        EXPECT_TRUE(std::equal(expected.begin(), expected.end() - 1, actual.begin(), [](float a, float b) {
+            return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b);
+        }));
+    }
+}
+
+// The evaluators read narrow rows (float, 3 values a vertex) and give the bits of the rows read
+// whole, level by level, on the cow at 5 steps (most of its blocks fit, a few are wide or
+// scattered), per-level and tiled, on one thread and two.
+TEST(Evaluator, NarrowRowsGiveTheBitsOfTheRowsReadWhole) {
+    Refined r = refineModel(test::dataPath("cow.obj"), 5);
+    const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    ASSERT_EQ(tiled.tileCount(), 0u);  // the cow at 5 steps: rows only
+    const std::vector<float> control(r.loaded.mesh.positions.begin(), r.loaded.mesh.positions.end());
+    const BufferLayout packed{0, 3, 3};
+    for (const PerLevelTable* table : std::initializer_list<const PerLevelTable*>{&r.perLevel, &tiled.rows}) {
+        const NarrowRows narrow = narrowRows(*table);
+        std::size_t fit = 0, wide = 0;
+        for (std::size_t b = 0; b < narrow.firstDestination.size(); ++b) ++(narrow.bases[4 * b] == kWideBlock ? wide : fit);
+        EXPECT_GT(fit, 10 * wide);
+        std::vector<float> expected(control);
+        for (std::size_t k = 0; k < table->levels.size(); ++k) {
+            std::vector<float> next(3 * std::size_t(table->levels[k].destinationCount) + 1);
+            evaluateLevelRows(*table, k, expected.data(), packed, next.data(), packed, 0,
+                              table->levels[k].rowEnd - table->levels[k].rowBegin);
+            next.pop_back();
+            expected = std::move(next);
+        }
+        for (int threads : {1, 2}) {
+            SCOPED_TRACE(testing::Message() << (table == &tiled.rows ? "tiled" : "per-level") << ", threads " << threads);
+            std::unique_ptr<CpuEvaluator<float>> evaluator =
+                table == &tiled.rows ? std::make_unique<CpuEvaluator<float>>(tiled, 3, threads)
+                                     : std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface,
+                                                                            TableForm::PerLevel, 3, threads);
+            std::vector<float> actual(expected.size());
+            evaluator->evaluate(control, actual);
+            EXPECT_TRUE(std::equal(expected.begin(), expected.end(), actual.begin(), [](float a, float b) {
+                return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b);
+            }));
         }
     }
 }

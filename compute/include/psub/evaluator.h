@@ -22,19 +22,46 @@ struct BufferLayout {
     bool valid() const { return length > 0 && offset + length <= stride; }
 };
 
+// A table's four-source rows (n = 3, m = 0: the face points of quads, the vertex points from
+// face points), each source a 16-bit offset from a base per block of kNarrowBlock rows and per
+// source position: 8 bytes of indices a row for a frame to read instead of 16, and no
+// destination where a block's are consecutive (docs/design.md, "Narrow rows"). Group g's rows
+// are blocks firstBlock[g] on (kNoNarrowRows: the group has none): row r's offsets at
+// offsets[kNarrowBlock * firstBlock[g] + r], its block b = firstBlock[g] + r / kNarrowBlock's
+// four bases at bases[4 b], the first kWideBlock where a source lies more than 65,535 vertices
+// past its position's least in the block (those rows read `indices`), and its first row's
+// destination at firstDestination[b], where each row's is the one before's plus 1 (else
+// kScattered: the rows read `destinations`).
+constexpr std::uint32_t kNarrowBlock = 64, kNoNarrowRows = UINT32_MAX, kWideBlock = UINT32_MAX,
+                        kScattered = UINT32_MAX;
+struct NarrowRows {
+    std::vector<std::uint32_t> firstBlock;        // per group of the table
+    std::vector<std::uint64_t> offsets;           // per row: its four sources less their bases, 16 bits each
+    std::vector<std::uint32_t> bases;             // per block: a base per source position
+    std::vector<std::uint32_t> firstDestination;  // per block
+};
+NarrowRows narrowRows(const PerLevelTable& table);
+
+// How evaluateLevelRows may read its buffers and indices (the defaults: every load checked,
+// every index read whole).
+struct RowReads {
+    // Every vertex the rows read from the source (the destination) can be read 16 bytes at a
+    // time: at least one more value can be read past its last vertex, or (the destination) no
+    // VertexFromFacePoints row reads that vertex. The kernel then reads them so, untested.
+    bool sourcePadded = false, destinationPadded = false;
+    // The table's rows as narrowRows made them from it, read instead of `indices` where a row
+    // fits (float, 3 values per vertex, packed buffers, both padded), or null.
+    const NarrowRows* narrow = nullptr;
+};
+
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
 // VertexFromFacePoints rows (a level's last groups) read `destination`: the level's rows before
 // them must have been written (on one thread, the rows in table order do that).
-// `sourcePadded` (`destinationPadded`): every vertex the rows read from the source (the
-// destination) can be read 16 bytes at a time: at least one more value can be read past its last
-// vertex, or (the destination) no VertexFromFacePoints row reads that vertex. The kernel then
-// reads them so, untested.
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sourceLayout, T* destination, BufferLayout destinationLayout,
-                       std::uint64_t rowBegin, std::uint64_t rowEnd, bool sourcePadded = false,
-                       bool destinationPadded = false);
+                       std::uint64_t rowBegin, std::uint64_t rowEnd, RowReads reads = {});
 
 // Rows [rowBegin, rowEnd) of a factorized table: `source` holds the control points,
 // `destination` the finest level's vertices.
@@ -191,6 +218,7 @@ private:
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
+    RowReads rowReads(std::size_t level) const;  // how level `level`'s rows read
     void needFaceNormals();                      // faceNormals_, for the two passes (once)
     void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
 
@@ -205,6 +233,7 @@ private:
     // No VertexFromFacePoints row of the finest level reads its last vertex, so they may read
     // every vertex of the output 16 bytes at a time (finestOwnReadsWide).
     bool finestOwnReadsWide_ = false;
+    NarrowRows narrow_;  // the rows' narrow indices (float, width 3; else empty)
     std::vector<T> faceNormals_;  // 4 per face, the 4th 0 (empty until the two passes first run)
     std::vector<T> ringNormals_;  // the tiles' ring faces' normals, 4 each in ringFaces order (restWindow_)
     bool allQuads_ = false;       // every face of the surface a quad: faceOffsets[f] == 4 f

@@ -1,0 +1,66 @@
+// narrowRows: the CPU evaluator's 16-bit copy of a table's four-source rows' indices (psub/evaluator.h,
+// NarrowRows; docs/design.md, "Narrow rows"). Reads the table alone.
+#include "psub/evaluator.h"
+
+#include <algorithm>
+#include <array>
+
+namespace psub {
+
+NarrowRows narrowRows(const PerLevelTable& table) {
+    NarrowRows narrow;
+    narrow.firstBlock.assign(table.groups.size(), kNoNarrowRows);
+    std::uint64_t blocks = 0;
+    for (std::size_t g = 0; g < table.groups.size(); ++g) {
+        const RowGroup& group = table.groups[g];
+        if (group.n != 3 || group.m != 0 || group.rowCount == 0) continue;
+        narrow.firstBlock[g] = std::uint32_t(blocks);
+        blocks += (group.rowCount + kNarrowBlock - 1) / kNarrowBlock;
+        if (blocks >= kNoNarrowRows) {  // more than 2^32 blocks: past what a table holds
+            narrow.firstBlock.assign(table.groups.size(), kNoNarrowRows);
+            return narrow;
+        }
+    }
+    narrow.offsets.assign(blocks * kNarrowBlock, 0);
+    narrow.bases.assign(4 * blocks, 0);
+    narrow.firstDestination.assign(blocks, kScattered);
+    for (std::size_t g = 0; g < table.groups.size(); ++g) {
+        if (narrow.firstBlock[g] == kNoNarrowRows) continue;
+        const RowGroup& group = table.groups[g];
+        const std::uint32_t* indices = table.indices.data() + group.indexBegin;
+        const std::uint32_t* destinations = table.destinations.data() + group.rowBegin;
+        const std::int64_t groupBlocks = std::int64_t((group.rowCount + kNarrowBlock - 1) / kNarrowBlock);
+#pragma omp parallel for schedule(static)
+        for (std::int64_t b = 0; b < groupBlocks; ++b) {
+            const std::uint64_t begin = std::uint64_t(b) * kNarrowBlock;
+            const std::uint64_t end = std::min(begin + kNarrowBlock, group.rowCount);
+            std::array<std::uint32_t, 4> least{UINT32_MAX, UINT32_MAX, UINT32_MAX, UINT32_MAX}, most{};
+            for (std::uint64_t r = begin; r < end; ++r)
+                for (int j = 0; j < 4; ++j) {
+                    least[j] = std::min(least[j], indices[4 * r + j]);
+                    most[j] = std::max(most[j], indices[4 * r + j]);
+                }
+            const std::uint64_t block = narrow.firstBlock[g] + std::uint64_t(b);
+            bool consecutive = true;
+            for (std::uint64_t r = begin + 1; r < end; ++r) consecutive = consecutive && destinations[r] == destinations[r - 1] + 1;
+            if (consecutive) narrow.firstDestination[block] = destinations[begin];
+            std::uint32_t* bases = narrow.bases.data() + 4 * block;
+            bool fits = true;
+            for (int j = 0; j < 4; ++j) fits = fits && most[j] - least[j] <= 0xffff;
+            if (!fits) {
+                bases[0] = kWideBlock;
+                continue;
+            }
+            std::copy(least.begin(), least.end(), bases);
+            std::uint64_t* offsets = narrow.offsets.data() + kNarrowBlock * std::uint64_t(narrow.firstBlock[g]);
+            for (std::uint64_t r = begin; r < end; ++r) {
+                std::uint64_t packed = 0;
+                for (int j = 0; j < 4; ++j) packed |= std::uint64_t(indices[4 * r + j] - least[j]) << (16 * j);
+                offsets[r] = packed;
+            }
+        }
+    }
+    return narrow;
+}
+
+}  // namespace psub
