@@ -288,6 +288,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     const auto measure = [&](Record& r, CpuEvaluator<float>& evaluator, TableForm form) {
         progress.show(label + ": " + r.evaluator + " " + std::to_string(r.threads) + " thr");
         r.buildRepetitions = repetitions;
+        r.bytesPerFrame -= evaluator.narrowBytesSaved();  // its narrow copy read instead (psub/evaluator.h)
         r.timing = timeFrames(
             frames, [&](int frame) { animation.write(frame, control.data(), 3); },
             [&] { evaluator.evaluate(control, out); });

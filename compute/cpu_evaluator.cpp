@@ -207,7 +207,7 @@ void CpuEvaluator<T>::allocate() {
     }
     if (form_ != TableForm::Factorized) levels_.resize(total);
     finestOwnReadsWide_ = finestOwnReadsWide(perLevel);
-    if (std::is_same_v<T, float> && width == 3 && form_ != TableForm::Factorized) narrow_ = narrowRows(perLevel);
+    makeNarrowRows();
     allQuads_ = surface.faceVerts.size() == 4 * (surface.faceOffsets.size() - 1);
     for (std::size_t f = 0; allQuads_ && f + 1 < surface.faceOffsets.size(); ++f)
         allQuads_ = surface.faceOffsets[f] == 4 * f;
@@ -222,6 +222,23 @@ void CpuEvaluator<T>::allocate() {
 template <class T>
 RowReads CpuEvaluator<T>::rowReads(std::size_t k) const {
     return {k > 0, k + 1 < perLevel_.levels.size() || finestOwnReadsWide_, narrow_.firstBlock.empty() ? nullptr : &narrow_};
+}
+
+// The narrow copy (float, 3 values a vertex) of the groups whose rows read it: four sources, no
+// diagonal term below zero (the kernel's `Lean` rows), reading a padded buffer (rowReads).
+template <class T>
+void CpuEvaluator<T>::makeNarrowRows() {
+    if (!std::is_same_v<T, float> || width_ != 3 || form_ == TableForm::Factorized) return;
+    std::vector<std::uint8_t> copied(perLevel_.groups.size(), 0);
+    for (std::size_t k = 0; k < perLevel_.levels.size(); ++k) {
+        const RowReads reads = rowReads(k);
+        for (std::uint64_t g = perLevel_.levels[k].groupBegin; g < perLevel_.levels[k].groupEnd; ++g) {
+            const RowGroup& group = perLevel_.groups[g];
+            const bool padded = group.kind == RowKind::VertexFromFacePoints ? reads.destinationPadded : reads.sourcePadded;
+            copied[g] = group.n == 3 && group.m == 0 && !std::signbit(group.diagonal) && padded;
+        }
+    }
+    narrow_ = narrowRows(perLevel_, copied);
 }
 
 // A normal per face (padded to 4: one aligned load each), for the two passes: allocated at

@@ -1,5 +1,5 @@
 // narrowRows: the CPU evaluator's 16-bit copy of a table's four-source rows' indices (psub/evaluator.h,
-// NarrowRows; docs/design.md, "Narrow rows"). Reads the table alone.
+// NarrowRows; docs/design.md, "Narrow rows"), and the bytes it spares a frame. Reads the table alone.
 #include "psub/evaluator.h"
 
 #include <algorithm>
@@ -7,13 +7,13 @@
 
 namespace psub {
 
-NarrowRows narrowRows(const PerLevelTable& table) {
+NarrowRows narrowRows(const PerLevelTable& table, std::span<const std::uint8_t> copied) {
     NarrowRows narrow;
     narrow.firstBlock.assign(table.groups.size(), kNoNarrowRows);
     std::uint64_t blocks = 0;
     for (std::size_t g = 0; g < table.groups.size(); ++g) {
         const RowGroup& group = table.groups[g];
-        if (group.n != 3 || group.m != 0 || group.rowCount == 0) continue;
+        if (group.n != 3 || group.m != 0 || group.rowCount == 0 || (!copied.empty() && !copied[g])) continue;
         narrow.firstBlock[g] = std::uint32_t(blocks);
         blocks += (group.rowCount + kNarrowBlock - 1) / kNarrowBlock;
         if (blocks >= kNoNarrowRows) {  // more than 2^32 blocks: past what a table holds
@@ -61,6 +61,21 @@ NarrowRows narrowRows(const PerLevelTable& table) {
         }
     }
     return narrow;
+}
+
+std::uint64_t narrowBytesSaved(const PerLevelTable& table, const NarrowRows& narrow) {
+    std::uint64_t saved = 0, blocks = 0;
+    for (std::size_t g = 0; g < narrow.firstBlock.size(); ++g) {
+        if (narrow.firstBlock[g] == kNoNarrowRows) continue;
+        const std::uint64_t rowCount = table.groups[g].rowCount;
+        for (std::uint64_t begin = 0; begin < rowCount; begin += kNarrowBlock, ++blocks) {
+            const std::uint64_t rows = std::min<std::uint64_t>(kNarrowBlock, rowCount - begin);
+            const std::uint64_t b = narrow.firstBlock[g] + begin / kNarrowBlock;
+            if (narrow.bases[4 * b] != kWideBlock) saved += (16 - 8) * rows;
+            if (narrow.firstDestination[b] != kScattered) saved += 4 * rows;
+        }
+    }
+    return saved > 20 * blocks ? saved - 20 * blocks : 0;
 }
 
 }  // namespace psub

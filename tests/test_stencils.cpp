@@ -310,6 +310,9 @@ TEST(Evaluator, NarrowRowsReadTheRowsIndicesAndGiveTheirBits) {
         for (std::uint32_t j = 0; j < 4; ++j)
             EXPECT_EQ(bases[j] + ((narrow.offsets[r] >> (16 * j)) & 0xffff), table.indices[4 * r + j]) << r << " " << j;
     }
+    // Fitting blocks 0, 2 and 3 (136 rows, 8 bytes each spared), consecutive blocks 0, 1 and 3
+    // (136 rows, 4 bytes each), less 20 bytes for each of the four blocks.
+    EXPECT_EQ(narrowBytesSaved(table, narrow), 136u * 8 + 136 * 4 - 4 * 20);
     std::vector<float> source(3 * std::size_t(kSources) + 1);
     for (float& x : source) x = std::ldexp(float(random() % 2001) - 1000.0f, -7);
     const BufferLayout packed{0, 3, 3};
@@ -340,6 +343,7 @@ TEST(Evaluator, NarrowRowsGiveTheBitsOfTheRowsReadWhole) {
         for (std::size_t b = 0; b < narrow.firstDestination.size(); ++b) ++(narrow.bases[4 * b] == kWideBlock ? wide : fit);
         EXPECT_GT(fit, 10 * wide);
         std::vector<float> expected(control);
+        const std::uint64_t everyGroupSaves = narrowBytesSaved(*table, narrow);
         for (std::size_t k = 0; k < table->levels.size(); ++k) {
             std::vector<float> next(3 * std::size_t(table->levels[k].destinationCount) + 1);
             evaluateLevelRows(*table, k, expected.data(), packed, next.data(), packed, 0,
@@ -354,12 +358,29 @@ TEST(Evaluator, NarrowRowsGiveTheBitsOfTheRowsReadWhole) {
                                      : std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface,
                                                                             TableForm::PerLevel, 3, threads);
             std::vector<float> actual(expected.size());
+            // Here every four-source group reads the copy (the cow's first level has none).
+            EXPECT_EQ(evaluator->narrowBytesSaved(), everyGroupSaves);
             evaluator->evaluate(control, actual);
             EXPECT_TRUE(std::equal(expected.begin(), expected.end(), actual.begin(), [](float a, float b) {
                 return std::bit_cast<std::uint32_t>(a) == std::bit_cast<std::uint32_t>(b);
             }));
         }
     }
+}
+
+// The evaluator copies only the groups whose rows read the copy: not the first level's face rows,
+// which read the caller's control points (the cube's: quads, four sources each).
+TEST(Evaluator, NarrowRowsCopyOnlyTheGroupsThatReadThem) {
+    const Refined r = refineModel(test::dataPath("cube.obj"), 6);
+    const NarrowRows every = narrowRows(r.perLevel);
+    const RowGroup& first = r.perLevel.groups[r.perLevel.levels[0].groupBegin];
+    ASSERT_EQ(first.kind, RowKind::FaceQuad);
+    ASSERT_NE(every.firstBlock[r.perLevel.levels[0].groupBegin], kNoNarrowRows);
+    std::vector<std::uint8_t> copied(r.perLevel.groups.size(), 1);
+    for (std::uint64_t g = r.perLevel.levels[0].groupBegin; g < r.perLevel.levels[0].groupEnd; ++g) copied[g] = 0;
+    const CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 1);
+    EXPECT_LT(evaluator.narrowBytesSaved(), narrowBytesSaved(r.perLevel, every));
+    EXPECT_EQ(evaluator.narrowBytesSaved(), narrowBytesSaved(r.perLevel, narrowRows(r.perLevel, copied)));
 }
 
 // The float rows give the bits of their definition, row by row: centre x source + edge x the

@@ -40,7 +40,12 @@ struct NarrowRows {
     std::vector<std::uint32_t> bases;             // per block: a base per source position
     std::vector<std::uint32_t> firstDestination;  // per block
 };
-NarrowRows narrowRows(const PerLevelTable& table);
+// The copy of the groups `copied` marks (copied[g] nonzero; empty: every four-source group).
+NarrowRows narrowRows(const PerLevelTable& table, std::span<const std::uint8_t> copied = {});
+// The table bytes a frame reads less with the copy: the indices of its fitting blocks (16 bytes
+// a row against the copy's 8) and the destinations of its consecutive ones, less its bases and
+// first destinations (20 bytes a block).
+std::uint64_t narrowBytesSaved(const PerLevelTable& table, const NarrowRows& narrow);
 
 // How evaluateLevelRows may read its buffers and indices (the defaults: every load checked,
 // every index read whole).
@@ -177,6 +182,10 @@ public:
     // per face for its two passes.
     void normals(std::span<const T> refined, std::span<T> normals);
 
+    // The table bytes a frame reads less than the table holds: those the narrow copy stands in
+    // for (narrowBytesSaved; 0 where it has none).
+    std::uint64_t narrowBytesSaved() const { return psub::narrowBytesSaved(perLevel_, narrow_); }
+
 private:
     // The two passes of normals(), run by each thread of its team on its share: of every face
     // and vertex, or (`only` not null) of the listed ones.
@@ -218,6 +227,7 @@ private:
     void normalPasses(const T* positions, T* normals, const std::vector<std::uint32_t>* faces = nullptr,
                       const std::vector<std::uint32_t>* vertices = nullptr);
     void allocate();                             // buffers of the constructors
+    void makeNarrowRows();                       // narrow_, of the groups whose rows read it
     RowReads rowReads(std::size_t level) const;  // how level `level`'s rows read
     void needFaceNormals();                      // faceNormals_, for the two passes (once)
     void evaluateTiled(std::span<const T> control, std::span<T> refined, T* normals, int team);
