@@ -285,8 +285,9 @@ TEST(Evaluator, TheFinestVertexRowsNeverReadPastTheOutput) {
 // Narrow rows (psub/evaluator.h): a hand-made level of 200 face rows over 70,000 sources, in
 // four blocks: one whose sources fit 16-bit offsets, one with a source 69,000 past its
 // position's least (wide: read from `indices`), one whose destinations have a gap (scattered:
-// read from `destinations`), and a last one of 8 rows. Every row decodes to its indices, and the
-// kernel gives the bits it gives without them for every range of rows, whole blocks or not.
+// read from `destinations`), and a last one of 8 rows. Every row of a fitting block decodes to its
+// indices, and the kernel gives the bits it gives without them for every range of rows, whole
+// blocks or not.
 TEST(Evaluator, NarrowRowsReadTheRowsIndicesAndGiveTheirBits) {
     constexpr std::uint32_t kRows = 200, kSources = 70000;
     PerLevelTable table;
@@ -358,7 +359,8 @@ TEST(Evaluator, NarrowRowsGiveTheBitsOfTheRowsReadWhole) {
                                      : std::make_unique<CpuEvaluator<float>>(r.perLevel, r.factorized, r.surface,
                                                                             TableForm::PerLevel, 3, threads);
             std::vector<float> actual(expected.size());
-            // Here every four-source group reads the copy (the cow's first level has none).
+            // Here every four-source group reads the copy: the cow's first level has none, and no
+            // finest vertex row reads the last vertex (finestOwnReadsWide), per-level too.
             EXPECT_EQ(evaluator->narrowBytesSaved(), everyGroupSaves);
             evaluator->evaluate(control, actual);
             EXPECT_TRUE(std::equal(expected.begin(), expected.end(), actual.begin(), [](float a, float b) {
