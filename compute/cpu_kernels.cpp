@@ -134,22 +134,25 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
     // next row's vertex, written next by this thread (packed destinations only).
     // Forced inline, as the lambdas above: called as functions from it, the rows reloaded every
     // value they captured, from memory, each row (2x slower).
+    const auto run = [&](float* out, std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {
+        for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, value(r));
+        store3(out, value(end - 1));
+    };
+    const auto each = [&](std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {
+        for (std::uint64_t r = begin; r < end; ++r)
+            store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, value(r));
+    };
     const auto consecutive = [&](std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {
         float* out = destination + std::size_t(destinations[begin]) * dl.stride + dl.offset;
-        if (dl.stride == 3) {
-            for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, value(r));
-            store3(out, value(end - 1));
-        } else {
-            for (std::uint64_t r = begin; r < end; ++r, out += dl.stride) store3(out, value(r));
-        }
+        if (dl.stride == 3) return run(out, begin, end, value);
+        for (std::uint64_t r = begin; r < end; ++r, out += dl.stride) store3(out, value(r));
     };
     // Ascending with gaps (the tiled form's finest level, grouped within chunks of its walk:
     // docs/tiled.md, "Output order"): blocks whose destinations are consecutive are stored as
     // above, the others one by one.
     const auto block = [&](std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {
         if (destinations[end - 1] - destinations[begin] == end - 1 - begin) return consecutive(begin, end, value);
-        for (std::uint64_t r = begin; r < end; ++r)
-            store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, value(r));
+        each(begin, end, value);
     };
     if constexpr (Padded3 && Lean && N == 3 && M == 0) {
         if (narrow.offsets && dl.stride == 3) {
@@ -158,14 +161,8 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
                 // A block's consecutive destinations from its first, none read.
                 const auto narrowBlock = [&](auto&& value) __attribute__((always_inline)) {
                     const std::uint32_t first = narrow.firstDestination[b];
-                    if (first == kScattered) {
-                        for (std::uint64_t r = begin; r < end; ++r)
-                            store3(destination + std::size_t(destinations[r]) * 3 + dl.offset, value(r));
-                        return;
-                    }
-                    float* out = destination + (std::size_t(first) + (begin - b * kNarrowBlock)) * 3 + dl.offset;
-                    for (std::uint64_t r = begin; r + 1 < end; ++r, out += 3) _mm_storeu_ps(out, value(r));
-                    store3(out, value(end - 1));
+                    if (first == kScattered) return each(begin, end, value);
+                    run(destination + (std::size_t(first) + (begin - b * kNarrowBlock)) * 3 + dl.offset, begin, end, value);
                 };
                 const std::uint32_t* bases = narrow.bases + 4 * b;
                 if (bases[0] == kWideBlock) {

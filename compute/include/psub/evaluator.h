@@ -55,7 +55,7 @@ struct RowReads {
     // VertexFromFacePoints row reads that vertex. The kernel then reads them so, untested.
     bool sourcePadded = false, destinationPadded = false;
     // The table's rows as narrowRows made them from it, read instead of `indices` where a row
-    // fits (float, 3 values per vertex, packed buffers, both padded), or null.
+    // fits (float, 3 values per vertex, packed buffers, the buffer the rows read padded), or null.
     const NarrowRows* narrow = nullptr;
 };
 
