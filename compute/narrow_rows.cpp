@@ -21,7 +21,7 @@ NarrowRows narrowRows(const PerLevelTable& table, std::span<const std::uint8_t> 
             return narrow;
         }
     }
-    narrow.offsets.assign(blocks * kNarrowBlock, 0);
+    narrow.offsets.assign(4 * blocks * kNarrowBlock, 0);
     narrow.bases.assign(4 * blocks, 0);
     narrow.firstDestination.assign(blocks, kScattered);
     for (std::size_t g = 0; g < table.groups.size(); ++g) {
@@ -52,12 +52,9 @@ NarrowRows narrowRows(const PerLevelTable& table, std::span<const std::uint8_t> 
                 continue;
             }
             std::copy(least.begin(), least.end(), bases);
-            std::uint64_t* offsets = narrow.offsets.data() + kNarrowBlock * std::uint64_t(narrow.firstBlock[g]);
-            for (std::uint64_t r = begin; r < end; ++r) {
-                std::uint64_t packed = 0;
-                for (int j = 0; j < 4; ++j) packed |= std::uint64_t(indices[4 * r + j] - least[j]) << (16 * j);
-                offsets[r] = packed;
-            }
+            std::uint16_t* offsets = narrow.offsets.data() + 4 * kNarrowBlock * std::uint64_t(narrow.firstBlock[g]);
+            for (std::uint64_t r = begin; r < end; ++r)
+                for (int j = 0; j < 4; ++j) offsets[4 * r + j] = std::uint16_t(indices[4 * r + j] - least[j]);
         }
     }
     return narrow;

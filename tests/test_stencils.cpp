@@ -309,7 +309,7 @@ TEST(Evaluator, NarrowRowsReadTheRowsIndicesAndGiveTheirBits) {
         const std::uint32_t* bases = narrow.bases.data() + 4 * (r / kNarrowBlock);
         if (bases[0] == kWideBlock) continue;
         for (std::uint32_t j = 0; j < 4; ++j)
-            EXPECT_EQ(bases[j] + ((narrow.offsets[r] >> (16 * j)) & 0xffff), table.indices[4 * r + j]) << r << " " << j;
+            EXPECT_EQ(bases[j] + narrow.offsets[4 * r + j], table.indices[4 * r + j]) << r << " " << j;
     }
     // Fitting blocks 0, 2 and 3 (136 rows, 8 bytes each spared), consecutive blocks 0, 1 and 3
     // (136 rows, 4 bytes each), less 20 bytes for each of the four blocks.

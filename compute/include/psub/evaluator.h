@@ -26,8 +26,8 @@ struct BufferLayout {
 // face points), each source a 16-bit offset from a base per block of kNarrowBlock rows and per
 // source position: 8 bytes of indices a row for a frame to read instead of 16, and no
 // destination where a block's are consecutive (docs/design.md, "Narrow rows"). Group g's rows
-// are blocks firstBlock[g] on (kNoNarrowRows: the group has none): row r's offsets at
-// offsets[kNarrowBlock * firstBlock[g] + r], its block b = firstBlock[g] + r / kNarrowBlock's
+// are blocks firstBlock[g] on (kNoNarrowRows: the group has none): row r's four offsets at
+// offsets[4 (kNarrowBlock * firstBlock[g] + r) + j], its block b = firstBlock[g] + r / kNarrowBlock's
 // four bases at bases[4 b], the first kWideBlock where a source lies more than 65,535 vertices
 // past its position's least in the block (those rows read `indices`), and its first row's
 // destination at firstDestination[b], where each row's is the one before's plus 1 (else
@@ -36,7 +36,7 @@ constexpr std::uint32_t kNarrowBlock = 64, kNoNarrowRows = UINT32_MAX, kWideBloc
                         kScattered = UINT32_MAX;
 struct NarrowRows {
     std::vector<std::uint32_t> firstBlock;        // per group of the table
-    std::vector<std::uint64_t> offsets;           // per row: its four sources less their bases, 16 bits each
+    std::vector<std::uint16_t> offsets;           // 4 per row: its sources less their bases
     std::vector<std::uint32_t> bases;             // per block: a base per source position
     std::vector<std::uint32_t> firstDestination;  // per block
 };
