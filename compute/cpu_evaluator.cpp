@@ -224,19 +224,16 @@ RowReads CpuEvaluator<T>::rowReads(std::size_t k) const {
     return {k > 0, k + 1 < perLevel_.levels.size() || finestOwnReadsWide_, narrow_.firstBlock.empty() ? nullptr : &narrow_};
 }
 
-// The narrow copy (float, 3 values a vertex) of the groups whose rows read it: four sources, no
-// diagonal term below zero (the kernel's `Lean` rows), reading a padded buffer (rowReads).
+// The narrow copy (float, 3 values a vertex) of the groups whose rows read it as rowReads has
+// them read (readsNarrowRows).
 template <class T>
 void CpuEvaluator<T>::makeNarrowRows() {
     if (!std::is_same_v<T, float> || width_ != 3 || form_ == TableForm::Factorized) return;
     std::vector<std::uint8_t> copied(perLevel_.groups.size(), 0);
     for (std::size_t k = 0; k < perLevel_.levels.size(); ++k) {
         const RowReads reads = rowReads(k);
-        for (std::uint64_t g = perLevel_.levels[k].groupBegin; g < perLevel_.levels[k].groupEnd; ++g) {
-            const RowGroup& group = perLevel_.groups[g];
-            const bool padded = group.kind == RowKind::VertexFromFacePoints ? reads.destinationPadded : reads.sourcePadded;
-            copied[g] = group.n == 3 && group.m == 0 && !std::signbit(group.diagonal) && padded;
-        }
+        for (std::uint64_t g = perLevel_.levels[k].groupBegin; g < perLevel_.levels[k].groupEnd; ++g)
+            copied[g] = readsNarrowRows(perLevel_.groups[g], reads);
     }
     narrow_ = narrowRows(perLevel_, copied);
 }

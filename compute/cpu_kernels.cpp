@@ -262,12 +262,13 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const std::uint64_t first = g.rowBegin - level.rowBegin;  // group's rows in the level
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
         if (begin >= end) continue;
+        const NarrowRows* narrow = readsNarrowRows(g, reads) ? reads.narrow : nullptr;
         if (g.kind == RowKind::VertexFromFacePoints)  // reads the level's own face points
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, destination, dl, level.destinationCount,
-                                       destination, dl, ascending, reads.destinationPadded, reads.narrow);
+                                       destination, dl, ascending, reads.destinationPadded, narrow);
         else
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
-                                       destination, dl, ascending, reads.sourcePadded, reads.narrow);
+                                       destination, dl, ascending, reads.sourcePadded, narrow);
     }
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 namespace psub {
 
@@ -58,6 +59,11 @@ NarrowRows narrowRows(const PerLevelTable& table, std::span<const std::uint8_t> 
         }
     }
     return narrow;
+}
+
+bool readsNarrowRows(const RowGroup& group, const RowReads& reads) {
+    const bool padded = group.kind == RowKind::VertexFromFacePoints ? reads.destinationPadded : reads.sourcePadded;
+    return group.n == 3 && group.m == 0 && !std::signbit(group.diagonal) && padded;
 }
 
 std::uint64_t narrowBytesSaved(const PerLevelTable& table, const NarrowRows& narrow) {

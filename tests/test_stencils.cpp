@@ -385,6 +385,25 @@ TEST(Evaluator, NarrowRowsCopyOnlyTheGroupsThatReadThem) {
     EXPECT_EQ(evaluator.narrowBytesSaved(), narrowBytesSaved(r.perLevel, narrowRows(r.perLevel, copied)));
 }
 
+// Which groups read the narrow copy: four sources, a diagonal term of +0, the buffer they read
+// padded (the parent level's, or for vertex points from face points the level's own).
+TEST(Evaluator, NarrowRowsAreReadByLeanFourSourceRowsOfPaddedBuffers) {
+    const RowGroup face{RowKind::FaceQuad, 3, 0, 4, 0, 1, 0, 0.25, 0.25, 0.0};
+    RowGroup fromFacePoints = face, negativeZero = face, triangle = face, valence3 = face;
+    fromFacePoints.kind = RowKind::VertexFromFacePoints;
+    negativeZero.diagonal = -0.0;
+    triangle.kind = RowKind::FaceTriangle, triangle.n = 2, triangle.width = 3;
+    valence3.kind = RowKind::VertexQuad, valence3.m = 3, valence3.width = 7;
+    const RowReads parentPadded{.sourcePadded = true}, ownPadded{.destinationPadded = true};
+    EXPECT_TRUE(readsNarrowRows(face, parentPadded));
+    EXPECT_FALSE(readsNarrowRows(face, ownPadded));
+    EXPECT_TRUE(readsNarrowRows(fromFacePoints, ownPadded));
+    EXPECT_FALSE(readsNarrowRows(fromFacePoints, parentPadded));
+    EXPECT_FALSE(readsNarrowRows(negativeZero, parentPadded));
+    EXPECT_FALSE(readsNarrowRows(triangle, parentPadded));
+    EXPECT_FALSE(readsNarrowRows(valence3, parentPadded));
+}
+
 // The float rows give the bits of their definition, row by row: centre x source + edge x the
 // sum of the edge sources + diagonal x the sum of the diagonals, every sum started from 0, in
 // that order (RowGroup, psub/tables.h). Sources of +0, -0 and other values, every level of the

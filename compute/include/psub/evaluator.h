@@ -55,9 +55,15 @@ struct RowReads {
     // VertexFromFacePoints row reads that vertex. The kernel then reads them so, untested.
     bool sourcePadded = false, destinationPadded = false;
     // The table's rows as narrowRows made them from it, read instead of `indices` where a row
-    // fits (float, 3 values per vertex, packed buffers, the buffer the rows read padded), or null.
+    // fits (float, 3 values per vertex, packed buffers, readsNarrowRows), or null.
     const NarrowRows* narrow = nullptr;
 };
+// Whether evaluateLevelRows reads group `group`'s rows from `reads.narrow` (float, 3 values a
+// vertex, packed buffers): four sources, a diagonal term of +0 (the kernel's lean rows), and the
+// buffer they read (the destination for VertexFromFacePoints rows) padded. What narrowRows's
+// `copied` should mark for a frame that reads so.
+bool readsNarrowRows(const RowGroup& group, const RowReads& reads);
+
 
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
