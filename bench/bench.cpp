@@ -13,8 +13,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <memory>
 #include <filesystem>
+#include <memory>
+#include <new>
 #include <numbers>
 
 namespace psub::bench {
@@ -187,7 +188,7 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
                 frames, [&](int frame) { animation.write(frame, control.data(), 3); },
                 [&] { evaluator->evaluate(control, {}); });
             r.normalsTiming = timeFrames(
-                frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+                warmOnly(frames), [&](int frame) { animation.write(frame, control.data(), 3); },
                 [&] { evaluator->evaluateKept(control, true); });
             r.hasNormals = true;
             animation.writeRest(control.data(), 3);
@@ -293,7 +294,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             frames, [&](int frame) { animation.write(frame, control.data(), 3); },
             [&] { evaluator.evaluate(control, out); });
         r.normalsTiming = timeFrames(
-            frames, [&](int frame) { animation.write(frame, control.data(), 3); },
+            warmOnly(frames), [&](int frame) { animation.write(frame, control.data(), 3); },
             [&] { evaluator.evaluate(control, out, normals); });
         r.hasNormals = true;
         animation.writeRest(control.data(), 3);
@@ -394,9 +395,22 @@ int runBench(const BenchOptions& options) {
     report.quick = options.quick;
     report.maxFaces = options.maxFaces;
     report.frames = {options.warmup, options.frames, options.frameBudgetSeconds};
+    report.frames.coldFrames = options.coldFrames;
+    report.frames.flushBytes = coldFlushBytes();
     if (options.quick) {
         report.frames.warmup = std::min(options.warmup, 1);
         report.frames.frames = std::min(options.frames, 5);
+        report.frames.coldFrames = std::min(options.coldFrames, 1);  // the path, not the caches
+        report.frames.flushBytes = std::size_t(64) << 20;
+    }
+    if (report.frames.coldFrames > 0) {
+        try {
+            flushCaches(report.frames.flushBytes);  // its buffer, once for the run
+        } catch (const std::bad_alloc&) {
+            report.warnings.push_back(format("no cold frames: %zu MB to write over the caches could not be allocated",
+                                             report.frames.flushBytes >> 20));
+            report.frames.coldFrames = 0;
+        }
     }
     const int allThreads = report.machine.threads;
     Progress progress;
@@ -492,10 +506,12 @@ int runBench(const BenchOptions& options) {
             size.cc = runOpenSubdiv(model.mesh, model.name, k, context, report.records);
 
             // Ratios against OpenSubdiv's fastest configuration of this size.
-            double osdFrame = 1e300, osdBuild = 1e300;
+            double osdFrame = 1e300, osdBuild = 1e300, osdCold = 1e300;
             for (std::size_t i = firstRecord; i < report.records.size(); ++i)
                 if (report.records[i].scheme == "cc") {
                     osdFrame = std::min(osdFrame, report.records[i].timing.median);
+                    if (report.records[i].timing.coldFrames > 0)
+                        osdCold = std::min(osdCold, report.records[i].timing.coldMedian);
                     osdBuild = std::min(osdBuild, report.records[i].buildMs);
                     if (report.records[i].refinedFaces != size.ccFaces)
                         report.warnings.push_back(model.name + " CC level " + std::to_string(k) + ": OpenSubdiv made " +
@@ -508,9 +524,11 @@ int runBench(const BenchOptions& options) {
                 }
             size.osdBestFrameMs = osdFrame;
             size.osdBestBuildMs = osdBuild;
+            size.osdBestColdFrameMs = osdCold < 1e300 ? osdCold : 0;
             for (std::size_t i = firstRecord; i < report.records.size(); ++i) {
                 Record& r = report.records[i];
                 r.ratioVsOsdBest = r.timing.median > 0 ? osdFrame / r.timing.median : 0;
+                r.coldRatioVsOsdBest = r.timing.coldMedian > 0 ? size.osdBestColdFrameMs / r.timing.coldMedian : 0;
                 r.buildRatioVsOsdBest = r.buildMs > 0 ? osdBuild / r.buildMs : 0;
             }
             for (const Shape& s : {size.ps, size.cc})
@@ -543,6 +561,7 @@ int runBench(const BenchOptions& options) {
         const double floorBytes = 12.0 * double(r.refinedVertices);
         r.floorMs = triad > 0 ? floorBytes / (triad * 1e9) * 1e3 : 0;
         r.floorRatio = r.floorMs > 0 ? r.timing.median / r.floorMs : 0;
+        r.coldFloorRatio = r.floorMs > 0 ? r.timing.coldMedian / r.floorMs : 0;
         r.writeFloorMs = writeOnly > 0 ? floorBytes / (writeOnly * 1e9) * 1e3 : 0;
         r.writeFloorRatio = r.writeFloorMs > 0 ? r.timing.median / r.writeFloorMs : 0;
         if (r.hasNormals) {

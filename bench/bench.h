@@ -28,6 +28,7 @@ struct BenchOptions {
     std::uint64_t maxFactorizedFaces = 5000000;  // PSub's factorized table only up to this (memory)
     int torus = 512;                  // the generated torus has torus x torus quads; 0: none
     double frameBudgetSeconds = 6;    // per configuration: fewer frames (>= 10) beyond this
+    int coldFrames = 3;               // frames timed each after the caches are flushed (0: none)
     std::string command;              // the command line, written next to the results
 };
 

@@ -73,6 +73,15 @@ def main():
         if record["floor_ms"] <= 0 or abs(record["floor_ratio"] * record["floor_ms"] - record["frame_ms_median"]) > \
                 1e-6 * max(1.0, record["frame_ms_median"]):
             fail(f"floor_ratio is not frame_ms_median / floor_ms: {record}")
+        # --quick times one cold frame (each after the caches are written over) for every record.
+        for key in ("cold_frames", "cold_frame_ms_median", "cold_frame_ms_min", "cold_floor_ratio",
+                    "cold_ratio_vs_osd_best"):
+            if not isinstance(record.get(key), (int, float)) or isinstance(record.get(key), bool):
+                fail(f"record lacks {key!r}: {record}")
+        if record["cold_frames"] != 1 or not 0 < record["cold_frame_ms_min"] <= record["cold_frame_ms_median"] or \
+                abs(record["cold_floor_ratio"] * record["floor_ms"] - record["cold_frame_ms_median"]) > \
+                1e-6 * max(1.0, record["cold_frame_ms_median"]):
+            fail(f"cold frame fields implausible or cold_floor_ratio off: {record}")
         if record["evaluator"].startswith("psub-"):  # frames with normals, against 24 B per vertex
             for key in ("normals_frame_ms_median", "normals_floor_ms", "normals_floor_ratio"):
                 if not isinstance(record.get(key), (int, float)) or record[key] <= 0:
@@ -81,6 +90,14 @@ def main():
                     abs(record["normals_floor_ratio"] * record["normals_floor_ms"] -
                         record["normals_frame_ms_median"]) > 1e-6 * max(1.0, record["normals_frame_ms_median"]):
                 fail(f"normals_floor_ms is not 24 B per vertex or its ratio is off: {record}")
+    if data["frames"].get("cold_frames") != 1 or data["frames"].get("cold_flush_bytes") != 64 << 20:
+        fail(f"frames settings lack the quick run's one cold frame after 64 MB: {data['frames']}")
+    for size in data["sizes"]:
+        best = min(r["cold_frame_ms_median"] for r in results
+                   if r["scheme"] == "cc" and r["model"] == size["model"] and r["refined_faces"] > 0 and
+                   r["cc_level"] == size["cc_levels"])
+        if abs(size["osd_best_cold_frame_ms"] - best) > 1e-12:
+            fail(f"osd_best_cold_frame_ms is not OpenSubdiv's fastest cold frame: {size}")
     seen = {r["evaluator"] for r in results}
     if not EVALUATORS <= seen:
         fail(f"evaluators missing: {sorted(EVALUATORS - seen)}")

@@ -72,12 +72,31 @@ struct FrameSettings {
     int warmup = 3, frames = 30;  // warm-up stops early once it has taken a second
     double budgetSeconds = 6;     // fewer frames (at least minFrames) when `frames` would take longer
     int minFrames = 10;
+    // Then `coldFrames` frames, each after flushCaches(flushBytes): what a frame costs when
+    // nothing of the last one is left in the caches (other work between frames, or a cache
+    // smaller than the frame's tables and buffers).
+    int coldFrames = 0;
+    std::size_t flushBytes = 0;
 };
 
 struct Timing {
     double median = 0, min = 0;
     int frames = 0;
+    double coldMedian = 0, coldMin = 0;
+    int coldFrames = 0;
 };
+
+// Writes `bytes` (a buffer kept for the run) on every thread, evicting what the caches held.
+void flushCaches(std::size_t bytes);
+// What flushCaches writes for a cold frame: twice the last-level cache this machine reports,
+// from 256 MB to 1 GB.
+std::size_t coldFlushBytes();
+
+inline double medianOf(std::vector<double>& ms) {
+    std::sort(ms.begin(), ms.end());
+    const std::size_t n = ms.size();
+    return n == 0 ? 0 : n % 2 ? ms[n / 2] : (ms[n / 2 - 1] + ms[n / 2]) / 2;
+}
 
 // Untimed animate(frame) writes new control points; timed evaluate() refines them.
 template <class Animate, class Evaluate>
@@ -102,15 +121,28 @@ Timing timeFrames(const FrameSettings& settings, Animate&& animate, Evaluate&& e
         evaluate();
         ms.push_back(msSince(start));
     }
-    std::sort(ms.begin(), ms.end());
     Timing timing;
     timing.frames = frames;
-    if (!ms.empty()) {
-        const std::size_t n = ms.size();
-        timing.median = n % 2 ? ms[n / 2] : (ms[n / 2 - 1] + ms[n / 2]) / 2;
-        timing.min = ms.front();
+    timing.median = medianOf(ms);
+    timing.min = ms.empty() ? 0 : ms.front();
+    std::vector<double> cold;
+    for (int i = 0; i < settings.coldFrames; ++i, ++frame) {
+        animate(frame);
+        flushCaches(settings.flushBytes);
+        const auto start = Clock::now();
+        evaluate();
+        cold.push_back(msSince(start));
     }
+    timing.coldFrames = int(cold.size());
+    timing.coldMedian = medianOf(cold);
+    timing.coldMin = cold.empty() ? 0 : cold.front();
     return timing;
+}
+
+// The same settings without cold frames (probes, and frames with normals).
+inline FrameSettings warmOnly(FrameSettings settings) {
+    settings.coldFrames = 0;
+    return settings;
 }
 
 // A small travelling wave over the rest pose: y += amplitude * sin(k x + 0.2 frame).
@@ -207,7 +239,8 @@ struct Record {
     int buildRepetitions = 1;    // build_repetitions: fastest of these many builds
     std::uint64_t tableBytes = 0;
     std::uint64_t tableEntries = 0;
-    Timing timing;               // frame_ms_median, frame_ms_min, frames
+    Timing timing;               // frame_ms_median, frame_ms_min, frames; cold_frame_ms_median,
+                                 // cold_frame_ms_min, cold_frames
     std::uint64_t bytesPerFrame = 0;
     double gbs = 0, bandwidthFraction = 0;
     double ratioVsOsdBest = 0, buildRatioVsOsdBest = 0;
@@ -217,6 +250,9 @@ struct Record {
     // frame_ms_median / floor_ms; write_floor_ms / write_floor_ratio: the same at the
     // write-only (streaming store) bandwidth.
     double floorMs = 0, floorRatio = 0, writeFloorMs = 0, writeFloorRatio = 0;
+    // cold_floor_ratio = cold_frame_ms_median / floor_ms; cold_ratio_vs_osd_best: OpenSubdiv's
+    // fastest cold frame at this size / this cold frame (where frames were timed cold).
+    double coldFloorRatio = 0, coldRatioVsOsdBest = 0;
     // PSub evaluators: frames of positions and normals together (normals_frame_ms_median; the
     // tiled CPU form computes most normals in its tile pass), against the floor of writing both
     // once (24 B per refined vertex at the triad: normals_floor_ms, normals_floor_ratio).
@@ -231,6 +267,7 @@ struct SizeResult {
     std::uint64_t psFaces = 0, ccFaces = 0;
     Shape ps, cc;
     double osdBestFrameMs = 0, osdBestBuildMs = 0;
+    double osdBestColdFrameMs = 0;  // 0: no cold frames
 };
 
 struct ModelResult {

@@ -14,16 +14,35 @@
 #include <sys/utsname.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <vector>
 
 namespace psub::bench::detail {
 
 #define PSUB_BENCH_STR2(x) #x
 #define PSUB_BENCH_STR(x) PSUB_BENCH_STR2(x)
+
+void flushCaches(std::size_t bytes) {
+    static std::vector<unsigned char> buffer;
+    static unsigned char value = 0;
+    if (buffer.size() < bytes) buffer.assign(bytes, 0);
+    ++value;
+    const std::int64_t lines = std::int64_t(bytes / 64);
+    unsigned char* data = buffer.data();
+#pragma omp parallel for schedule(static)
+    for (std::int64_t line = 0; line < lines; ++line) data[64 * line] = value;
+}
+
+std::size_t coldFlushBytes() {
+    const long lastLevel = ::sysconf(_SC_LEVEL3_CACHE_SIZE);
+    const std::size_t twice = lastLevel > 0 ? 2 * std::size_t(lastLevel) : 0;
+    return std::clamp(twice, std::size_t(256) << 20, std::size_t(1) << 30);
+}
 
 Machine describeMachine() {
     Machine m;

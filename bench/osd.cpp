@@ -232,6 +232,7 @@ Shape runOpenSubdiv(const Mesh& mesh, const std::string& model, int level, const
             probe.frames = std::min(context.frames.frames, 5);
             probe.minFrames = 1;
             probe.budgetSeconds = context.frames.budgetSeconds / 6;
+            probe.coldFrames = 0;
             if (context.progress) context.progress->show(context.label + ": " + name + " " +
                                                          std::to_string(config.threads) + " thr, layout probe");
             r.probe3 = run(3, probe).median;

@@ -94,6 +94,16 @@ void printMarkdown(const Report& report, std::FILE* out) {
                  "min) of %d timed frames after %d warm-up frames (fewer, at least 10, where %d frames would "
                  "take over %.0f s)\n",
                  report.frames.frames, report.frames.warmup, report.frames.frames, report.frames.budgetSeconds);
+    if (report.frames.coldFrames > 0)
+        std::fprintf(out,
+                     "- Cold frames: then %d more, each after %zu MB written on every thread (%s); cold ms is their "
+                     "median, cold x floor its multiple of the same floor, cold speed-up OpenSubdiv's fastest cold "
+                     "frame over it\n",
+                     report.frames.coldFrames, report.frames.flushBytes >> 20,
+                     report.quick ? "the quick run's size, which tests the path, not the caches"
+                                  : "twice the last-level cache: nothing of the last frame left in the caches, as "
+                                    "after other work, or where the caches are smaller than the frame's tables and "
+                                    "buffers");
     std::fprintf(out,
                  "- Sizes: P-S levels with the face count of Catmull-Clark level k (2k topological steps, the "
                  "paired method being the first when a face is not a quad)\n\n");
@@ -149,10 +159,10 @@ void printMarkdown(const Report& report, std::FILE* out) {
     std::fprintf(out, "| model | k | scheme | levels | faces | evaluator | thr | layout | build ms (topology + "
                       "table) | frame ms median | min | frames | MB/frame | GB/s | bw fraction | speed-up vs OSD "
                       "fastest | build speed-up | max diff | floor ms | x floor | x write floor | table MB | "
-                      "with normals ms | x floor (24 B) |\n");
-    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+                      "with normals ms | x floor (24 B) | cold ms | cold x floor | cold speed-up vs OSD fastest |\n");
+    std::fprintf(out, "|---|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (const Record& r : report.records)
-        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e | %.3f | %.1f | %.1f | %.1f | %s | %s |\n",
+        std::fprintf(out, "| %s | %d | %s | %d | %llu | %s | %d | %d | %s (%s + %s) | %s | %s | %d | %.1f | %.1f | %.2f | %s | %s | %.1e | %.3f | %.1f | %.1f | %.1f | %s | %s | %s | %s | %s |\n",
                      r.model.c_str(), r.ccLevel, r.scheme == "ps" ? "P-S" : "CC", r.levels,
                      (unsigned long long)r.refinedFaces, r.evaluator.c_str(), r.threads, r.layoutFloats,
                      ms(r.buildMs).c_str(), ms(r.topologyMs).c_str(), ms(r.tableMs).c_str(),
@@ -160,7 +170,10 @@ void printMarkdown(const Report& report, std::FILE* out) {
                      double(r.bytesPerFrame) / 1e6, r.gbs, r.bandwidthFraction, ratio(r.ratioVsOsdBest).c_str(),
                      ratio(r.buildRatioVsOsdBest).c_str(), r.maxDiff, r.floorMs, r.floorRatio, r.writeFloorRatio,
                      double(r.tableBytes) / 1e6, r.hasNormals ? ms(r.normalsTiming.median).c_str() : "-",
-                     r.hasNormals ? format("%.1f", r.normalsFloorRatio).c_str() : "-");
+                     r.hasNormals ? format("%.1f", r.normalsFloorRatio).c_str() : "-",
+                     r.timing.coldFrames > 0 ? ms(r.timing.coldMedian).c_str() : "-",
+                     r.timing.coldFrames > 0 ? format("%.1f", r.coldFloorRatio).c_str() : "-",
+                     r.coldRatioVsOsdBest > 0 ? ratio(r.coldRatioVsOsdBest).c_str() : "-");
 
     std::fprintf(out, "\n## Shape at matched sizes (refined positions from the evaluators, rest pose)\n\n");
     std::fprintf(out, "| model | input volume | input box diagonal | k | P-S levels | P-S faces | P-S volume | P-S "
@@ -216,7 +229,8 @@ void writeJson(const Report& report, const std::string& path) {
                          {"cc_faces", size.ccFaces}, {"ps_faces", size.psFaces}, {"cc_volume", size.cc.volume},
                          {"cc_bbox_diagonal", size.cc.diagonal}, {"ps_volume", size.ps.volume},
                          {"ps_bbox_diagonal", size.ps.diagonal}, {"osd_best_frame_ms", size.osdBestFrameMs},
-                         {"osd_best_build_ms", size.osdBestBuildMs}});
+                         {"osd_best_build_ms", size.osdBestBuildMs},
+                         {"osd_best_cold_frame_ms", size.osdBestColdFrameMs}});
     for (const Record& r : report.records) {
         Json o = {{"model", r.model}, {"scheme", r.scheme}, {"levels", r.levels}, {"cc_level", r.ccLevel},
                   {"refined_faces", r.refinedFaces}, {"refined_vertices", r.refinedVertices},
@@ -231,6 +245,11 @@ void writeJson(const Report& report, const std::string& path) {
         o["max_diff_rel"] = r.maxDiff, o["volume"] = r.shape.volume, o["bbox_diagonal"] = r.shape.diagonal;
         o["floor_ms"] = r.floorMs, o["floor_ratio"] = r.floorRatio;
         o["write_floor_ms"] = r.writeFloorMs, o["write_floor_ratio"] = r.writeFloorRatio;
+        if (r.timing.coldFrames > 0) {
+            o["cold_frame_ms_median"] = r.timing.coldMedian, o["cold_frame_ms_min"] = r.timing.coldMin;
+            o["cold_frames"] = r.timing.coldFrames, o["cold_floor_ratio"] = r.coldFloorRatio;
+            o["cold_ratio_vs_osd_best"] = r.coldRatioVsOsdBest;
+        }
         if (r.hasNormals) {
             o["normals_frame_ms_median"] = r.normalsTiming.median, o["normals_floor_ms"] = r.normalsFloorMs;
             o["normals_floor_ratio"] = r.normalsFloorRatio;
@@ -248,7 +267,8 @@ void writeJson(const Report& report, const std::string& path) {
         {"triad", {{"elements_per_array", std::uint64_t(report.triadElements)}, {"bytes_per_element", 24},
                    {"convention", "STREAM: a[i] = b[i] + s*c[i], 3 arrays x 8 bytes per element, best of several runs"}}},
         {"frames", {{"warmup", report.frames.warmup}, {"frames", report.frames.frames},
-                    {"budget_seconds", report.frames.budgetSeconds}, {"quick", report.quick}}},
+                    {"budget_seconds", report.frames.budgetSeconds}, {"quick", report.quick},
+                    {"cold_frames", report.frames.coldFrames}, {"cold_flush_bytes", std::uint64_t(report.frames.flushBytes)}}},
         {"max_faces", report.maxFaces},
         {"bytes_per_frame_model",
          "table bytes + for each pass: source vertices read once + destination vertices written once, "

@@ -271,7 +271,11 @@ int main(int argc, char** argv) {
     addInteger(be, "--warmup", benchOptions.warmup, 0, 1000, "untimed frames before them", 3);
     addReal(be, "--frame-budget", benchOptions.frameBudgetSeconds, 0.001, 86400,
             "seconds per configuration: beyond it, fewer frames (at least 10) are timed", 6);
-    be->add_flag("--quick", benchOptions.quick, "smallest size per model and 5 frames (a smoke test)");
+    addInteger(be, "--cold-frames", benchOptions.coldFrames, 0, 1000,
+               "then frames timed each after writing twice the last-level cache (256 MB to 1 GB): the frame "
+               "when the caches hold nothing of the last one",
+               3);
+    be->add_flag("--quick", benchOptions.quick, "smallest size per model, 5 frames and 1 cold one (a smoke test)");
     addInteger(be, "-l,--levels", benchOptions.levels, 1, 10,
                "Catmull-Clark levels 1..N (small models go on while they have at most --extend-below faces)", 3);
     addInteger(be, "--extend-below", benchOptions.extendBelow, 0, kMaxBenchFaces,
