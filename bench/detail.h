@@ -98,7 +98,8 @@ inline double medianOf(std::vector<double>& ms) {
     return n == 0 ? 0 : n % 2 ? ms[n / 2] : (ms[n / 2 - 1] + ms[n / 2]) / 2;
 }
 
-// Untimed animate(frame) writes new control points; timed evaluate() refines them.
+// Untimed animate(frame) writes new control points; timed evaluate() refines them: warm-up,
+// frames back to back, then settings.coldFrames frames each after flushCaches.
 template <class Animate, class Evaluate>
 Timing timeFrames(const FrameSettings& settings, Animate&& animate, Evaluate&& evaluate) {
     double last = 0, warm = 0;
