@@ -143,7 +143,10 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
             _mm_storeu_ps(out, a);
             _mm_storeu_ps(out + 3, b);
         }
-        if (r + 1 < end) _mm_storeu_ps(out, value(r++)), out += 3;
+        if (r + 1 < end) {
+            _mm_storeu_ps(out, value(r));
+            out += 3;
+        }
         store3(out, value(end - 1));
     };
     const auto each = [&](std::uint64_t begin, std::uint64_t end, auto&& value) __attribute__((always_inline)) {

@@ -64,7 +64,6 @@ struct RowReads {
 // `copied` should mark for a frame that reads so.
 bool readsNarrowRows(const RowGroup& group, const RowReads& reads);
 
-
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
 // VertexFromFacePoints rows (a level's last groups) read `destination`: the level's rows before
