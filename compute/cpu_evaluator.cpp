@@ -1,5 +1,5 @@
 // The threaded CPU evaluator: one OpenMP parallel region per frame, rows split evenly across
-// threads, a barrier between levels; normals gathered per vertex.
+// threads, a barrier of its own between levels; normals gathered per vertex.
 #include "psub/evaluator.h"
 
 #if defined(__SSE2__)
@@ -8,9 +8,11 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <stdexcept>
+#include <thread>
 #include <type_traits>
 
 namespace psub {
@@ -23,6 +25,40 @@ constexpr bool kSimd = false;
 #endif
 
 constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate level (allocate)
+
+// The barrier between a frame's row phases (two a level), for the team of the parallel region
+// that shares it. libgomp's `omp barrier` makes a system call to wake sleepers each time, about
+// 1.5 us on a 2-vCPU VM against 0.4 us for this one (bench/README.md, "Session 37"). It spins,
+// then yields the core at each look (a machine with more threads than cores).
+class TeamBarrier {
+public:
+    void wait() {
+        const auto threads = std::uint32_t(omp_get_num_threads());
+        if (threads == 1) return;
+        const std::uint32_t generation = generation_.load(std::memory_order_acquire);
+        if (arrived_.fetch_add(1, std::memory_order_acq_rel) + 1 == threads) {
+            arrived_.store(0, std::memory_order_relaxed);
+            generation_.store(generation + 1, std::memory_order_release);
+            return;
+        }
+        constexpr std::uint32_t kSpins = 1u << 14;  // 0.05-0.6 ms of pauses (10-140 cycles each)
+        for (std::uint32_t spins = 0; generation_.load(std::memory_order_acquire) == generation; ++spins) {
+            if (spins < kSpins)
+                pause();
+            else
+                std::this_thread::yield();
+        }
+    }
+
+private:
+    static void pause() {
+#if defined(__SSE2__)
+        _mm_pause();
+#endif
+    }
+    alignas(64) std::atomic<std::uint32_t> arrived_{0};
+    alignas(64) std::atomic<std::uint32_t> generation_{0};
+};
 
 // normals() in one pass (windowedNormalsSimd): vertices a block of 32 at a time, face normals in
 // a window of 8192 (128 KB, in the second-level cache; the cow at 7 steps in drawing order needs
@@ -129,12 +165,12 @@ bool finestOwnReadsWide(const PerLevelTable& table) {
 // other threads' face points) the VertexFromFacePoints rows, which read the level's own points.
 template <class T>
 void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
-                        T* destination, RowReads reads) {
+                        T* destination, RowReads reads, TeamBarrier& barrier) {
     const StencilLevel& level = table.levels[k];
     const std::uint64_t split = facePointGroupsBegin(table, level);
     evaluateGroupsShare(table, k, level.groupBegin, split, source, layout, destination, reads);
     if (split == level.groupEnd) return;
-#pragma omp barrier
+    barrier.wait();
     evaluateGroupsShare(table, k, split, level.groupEnd, source, layout, destination, reads);
 }
 
@@ -442,12 +478,13 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         std::copy(control.begin(), control.begin() + std::ptrdiff_t(controlCount()) * width_, refined.begin());
         return;
     }
+    TeamBarrier barrier;
 #pragma omp parallel num_threads(team) if (team > 1)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k));
-#pragma omp barrier
+        evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k), barrier);
+        if (k + 1 < levels) barrier.wait();  // after the last, the region's end
     }
 }
 
@@ -484,21 +521,24 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         if (restWindow_.planned()) return TileNormals<T>{normals, ringNormals_.data() + 4 * std::size_t(tileNormals_.ringBegin[k]), nullptr};
         return TileNormals<T>{normals, faceNormals_.data(), tileNormals_.ringFaces.data() + tileNormals_.ringBegin[k]};
     };
+    TeamBarrier barrier;
 #pragma omp parallel num_threads(team) if (team > 1)
     {
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k));
-#pragma omp barrier
+            evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k), barrier);
+            if (k + 1 < levels || tiled.tileCount() > 0 || normals) barrier.wait();  // else the region's end
         }
-        T* scratch = threadScratch<T>(scratchSize);
-        // One tile at a time: tiles are large (lattices up to 128 a side) and few on small
-        // meshes, largest first, so chunks of several left one thread most of the work.
+        if (tiled.tileCount() > 0) {
+            T* scratch = threadScratch<T>(scratchSize);
+            // One tile at a time: tiles are large (lattices up to 128 a side) and few on small
+            // meshes, largest first, so chunks of several left one thread most of the work.
 #pragma omp for schedule(dynamic, 1)
-        for (std::size_t k = 0; k < tiled.tileCount(); ++k)
-            evaluateTile(tiled, k, base, width_, refined.data(), tileNormals(k), scratch);
-        // After the loop's implicit barrier every position is written.
+            for (std::size_t k = 0; k < tiled.tileCount(); ++k)
+                evaluateTile(tiled, k, base, width_, refined.data(), tileNormals(k), scratch);
+        }
+        // After the loop's implicit barrier (or the last level's) every position is written.
         if (normals && restWindow_.planned())
             windowedNormalsSimd(refined.data(), normals, restWindow_);
         else if (normals)
