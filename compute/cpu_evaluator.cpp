@@ -1,5 +1,5 @@
-// The threaded CPU evaluator: one OpenMP parallel region per frame, rows split evenly across
-// threads, a barrier of its own between levels; normals gathered per vertex.
+// The threaded CPU evaluator: one OpenMP parallel region per frame, rows shared across threads
+// by their speed in the frames before, a barrier of its own between levels; normals per vertex.
 #include "psub/evaluator.h"
 
 #if defined(__SSE2__)
@@ -16,6 +16,33 @@
 #include <type_traits>
 
 namespace psub {
+
+std::uint64_t rowShareStart(std::uint64_t count, const double* bounds, std::uint64_t t, std::uint64_t n) {
+    if (t == 0) return 0;
+    if (t >= n) return count;
+    return std::min(count, std::uint64_t(double(count) * bounds[t]));
+}
+
+void balanceRowShares(std::span<double> bounds, std::span<double> seconds, std::size_t secondsApart) {
+    if (bounds.size() < 2) return;
+    const std::size_t n = bounds.size() - 1;
+    double total = 0;  // the team's speed: fractions of the rows a second
+    for (std::size_t t = 0; t < n; ++t) {
+        const double s = seconds[secondsApart * t];
+        if (!(s > 0)) return std::fill(seconds.begin(), seconds.end(), 0.0);  // a thread ran no rows
+        total += (bounds[t + 1] - bounds[t]) / s;
+    }
+    double sum = 0;  // each thread's new fraction in place of its seconds (no allocation a frame)
+    for (std::size_t t = 0; t < n; ++t) {
+        const double fraction = bounds[t + 1] - bounds[t], speed = fraction / seconds[secondsApart * t];
+        seconds[secondsApart * t] = std::max(0.75 * fraction + 0.25 * speed / total, 0.25 / double(n));
+        sum += seconds[secondsApart * t];
+    }
+    for (std::size_t t = 0; t + 1 < n; ++t) bounds[t + 1] = bounds[t] + seconds[secondsApart * t] / sum;
+    bounds[n] = 1;
+    std::fill(seconds.begin(), seconds.end(), 0.0);
+}
+
 namespace {
 
 #if defined(__SSE2__)
@@ -85,9 +112,10 @@ std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
 
 // This thread's share of groups [groupBegin, groupEnd) of a level's rows (their rows within the
 // level), balanced by work (source indices plus the write) rather than by row count: a level's
-// face rows are far cheaper than its vertex rows.
+// face rows are far cheaper than its vertex rows. `bounds`: the threads' fractions of the work.
 std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, const StencilLevel& level,
-                                                    std::uint64_t groupBegin, std::uint64_t groupEnd) {
+                                                    std::uint64_t groupBegin, std::uint64_t groupEnd,
+                                                    const double* bounds) {
     const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
     if (groupBegin == groupEnd) return {0, 0};
     const std::uint64_t first = table.groups[groupBegin].rowBegin - level.rowBegin;
@@ -108,7 +136,7 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
         }
         return last;
     };
-    return {t == 0 ? first : rowAt(total * t / n), t + 1 == n ? last : rowAt(total * (t + 1) / n)};
+    return {t == 0 ? first : rowAt(rowShareStart(total, bounds, t, n)), t + 1 == n ? last : rowAt(rowShareStart(total, bounds, t + 1, n))};
 }
 
 // The first of a level's VertexFromFacePoints groups (its last ones), or groupEnd: the rows
@@ -120,24 +148,25 @@ std::uint64_t facePointGroupsBegin(const PerLevelTable& table, const StencilLeve
 }
 
 // This thread's rows of groups [groupBegin, groupEnd) of level k, from `source` into
-// `destination`: an even share of every row group on the table's region-ordered and
-// walk-ordered levels (each thread one region of the mesh at each level, reading mostly its own
-// writes: docs/design.md, "Threads and regions"; a group's rows have one shape, so equal counts
-// are equal work), else shareByWork's one range. On the cow at 7 steps in walk order the even
+// `destination`: its share (the fractions `bounds`) of every row group on the table's
+// region-ordered and walk-ordered levels (each thread one region of the mesh at each level,
+// reading mostly its own writes: docs/design.md, "Threads and regions"; a group's rows have one
+// shape, so equal counts are equal work), else shareByWork's one range. On the cow at 7 steps in walk order the even
 // shares took 4.0-4.2 ms a frame, shareByWork's 5.4-5.7 (its range gives one thread most face
 // points, the other most vertex points).
 template <class T>
 void evaluateGroupsShare(const PerLevelTable& table, std::size_t k, std::uint64_t groupBegin, std::uint64_t groupEnd,
-                         const T* source, BufferLayout layout, T* destination, RowReads reads) {
+                         const T* source, BufferLayout layout, T* destination, RowReads reads, const double* bounds) {
     const StencilLevel& level = table.levels[k];
     const bool regionShares = (table.regions > 1 && k < table.regionLevels) || k >= table.walkFrom;
-    if (!regionShares || omp_get_num_threads() == 1) {
-        const auto [begin, end] = shareByWork(table, level, groupBegin, groupEnd);
+    const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
+    if (!regionShares || n == 1) {
+        const auto [begin, end] = shareByWork(table, level, groupBegin, groupEnd, bounds);
         return evaluateLevelRows(table, k, source, layout, destination, layout, begin, end, reads);
     }
     for (std::uint64_t g = groupBegin; g < groupEnd; ++g) {
         const RowGroup& group = table.groups[g];
-        const auto [begin, end] = share(group.rowCount);
+        const std::uint64_t begin = rowShareStart(group.rowCount, bounds, t, n), end = rowShareStart(group.rowCount, bounds, t + 1, n);
         const std::uint64_t first = group.rowBegin - level.rowBegin;
         if (begin < end)
             evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, reads);
@@ -161,18 +190,45 @@ bool finestOwnReadsWide(const PerLevelTable& table) {
     return true;
 }
 
+// The threads' shares of a frame's rows: thread t's from the fraction bounds[t] of each group
+// (or of a level's work) to bounds[t + 1]; and where each adds the seconds it spends on them
+// (seconds[kSecondsApart t]).
+constexpr std::size_t kSecondsApart = 8;  // doubles: a cache line each
+struct RowShares {
+    const double* bounds;
+    double* seconds;
+};
+
 // This thread's rows of level k: the rows that read the parent level, then (after a barrier:
 // other threads' face points) the VertexFromFacePoints rows, which read the level's own points.
 template <class T>
 void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* source, BufferLayout layout,
-                        T* destination, RowReads reads, TeamBarrier& barrier) {
+                        T* destination, RowReads reads, TeamBarrier& barrier, RowShares shares) {
     const StencilLevel& level = table.levels[k];
     const std::uint64_t split = facePointGroupsBegin(table, level);
-    evaluateGroupsShare(table, k, level.groupBegin, split, source, layout, destination, reads);
+    double& seconds = shares.seconds[kSecondsApart * std::size_t(omp_get_thread_num())];
+    const double start = omp_get_wtime();
+    evaluateGroupsShare(table, k, level.groupBegin, split, source, layout, destination, reads, shares.bounds);
+    seconds += omp_get_wtime() - start;
     if (split == level.groupEnd) return;
     barrier.wait();
-    evaluateGroupsShare(table, k, split, level.groupEnd, source, layout, destination, reads);
+    const double restart = omp_get_wtime();
+    evaluateGroupsShare(table, k, split, level.groupEnd, source, layout, destination, reads, shares.bounds);
+    seconds += omp_get_wtime() - restart;
 }
+
+// The rows' shares for a team of `team` threads: those of the frames before where the team was
+// the same, else even ones.
+RowShares rowShares(std::vector<double>& bounds, std::vector<double>& seconds, int team) {
+    if (bounds.size() != std::size_t(team) + 1) {
+        bounds.resize(std::size_t(team) + 1);
+        for (int t = 0; t <= team; ++t) bounds[std::size_t(t)] = double(t) / double(team);
+        seconds.assign(kSecondsApart * std::size_t(team), 0.0);
+    }
+    return {bounds.data(), seconds.data()};
+}
+
+
 
 // Threads worth starting for `values` output values: a parallel region and its barriers cost
 // microseconds (milliseconds when the machine is oversubscribed), so small meshes run on one.
@@ -479,13 +535,15 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         return;
     }
     TeamBarrier barrier;
+    const RowShares shares = rowShares(rowBounds_, rowSeconds_, team);
 #pragma omp parallel num_threads(team) if (team > 1)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
         T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-        evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k), barrier);
+        evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k), barrier, shares);
         if (k + 1 < levels) barrier.wait();  // after the last, the region's end
     }
+    balanceRowShares(rowBounds_, rowSeconds_, kSecondsApart);
 }
 
 template <class T>
@@ -522,12 +580,13 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         return TileNormals<T>{normals, faceNormals_.data(), tileNormals_.ringFaces.data() + tileNormals_.ringBegin[k]};
     };
     TeamBarrier barrier;
+    const RowShares shares = rowShares(rowBounds_, rowSeconds_, team);
 #pragma omp parallel num_threads(team) if (team > 1)
     {
         for (std::size_t k = 0; k < levels; ++k) {
             const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
             T* destination = k + 1 == levels ? refined.data() : levels_.data() + levelBase_[k];
-            evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k), barrier);
+            evaluateLevelShare(perLevel_, k, source, packed, destination, rowReads(k), barrier, shares);
             if (k + 1 < levels || tiled.tileCount() > 0 || normals) barrier.wait();  // else the region's end
         }
         if (tiled.tileCount() > 0) {
@@ -544,6 +603,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         else if (normals)
             normalPasses(refined.data(), normals, &tileNormals_.restFaces, &tileNormals_.restVertices);
     }
+    balanceRowShares(rowBounds_, rowSeconds_, kSecondsApart);
 }
 
 template <class T>

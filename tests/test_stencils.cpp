@@ -536,6 +536,83 @@ TEST(Evaluator, ThreadsGiveBitIdenticalResults) {
     for (int threads : {2, 3, 7}) EXPECT_EQ(one, evaluateWith<float>(r, TableForm::PerLevel, r.loaded.mesh.positions, threads));
 }
 
+// Any fractions tile every count exactly: each thread's rows begin where the one before's end.
+TEST(Evaluator, RowSharesMeetExactlyWhateverTheFractions) {
+    const std::vector<std::vector<double>> boundsSets = {
+        {0, 1}, {0, 0.5, 1}, {0, 0.1, 0.35, 1}, {0, 1.0 / 3, 2.0 / 3, 1}, {0, 0.999999, 1}, {0, 0.2, 0.2, 0.9, 1}};
+    for (const std::vector<double>& bounds : boundsSets) {
+        const std::uint64_t n = bounds.size() - 1;
+        for (const std::uint64_t count : {0ull, 1ull, 7ull, 1000ull, 123457ull}) {
+            EXPECT_EQ(rowShareStart(count, bounds.data(), 0, n), 0u);
+            EXPECT_EQ(rowShareStart(count, bounds.data(), n, n), count);
+            for (std::uint64_t t = 0; t < n; ++t) {
+                const std::uint64_t begin = rowShareStart(count, bounds.data(), t, n), end = rowShareStart(count, bounds.data(), t + 1, n);
+                EXPECT_LE(begin, end) << "thread " << t << " of " << n << ", " << count << " rows";
+                // Within a row of the fraction's own share.
+                EXPECT_NEAR(double(end - begin), double(count) * (bounds[t + 1] - bounds[t]), 1.0);
+            }
+        }
+    }
+}
+
+// The shares move a quarter of the way toward the threads' speeds (hand-computed), settle where
+// the threads take equal times, and keep a slow thread's share at least a fifth of an even one.
+TEST(Evaluator, RowSharesMoveTowardTheFasterThread) {
+    constexpr std::size_t apart = 8;
+    std::vector<double> bounds = {0, 0.5, 1}, seconds(2 * apart, 0.0);
+    seconds[0] = 1.0, seconds[apart] = 3.0;  // thread 1 three times as slow
+    balanceRowShares(bounds, seconds, apart);
+    // Speeds 0.5 / 1 and 0.5 / 3 (2/3 in all): 0.75 and 0.25 of it; a quarter of the way there.
+    EXPECT_NEAR(bounds[1], 0.75 * 0.5 + 0.25 * 0.75, 1e-12);
+    EXPECT_EQ(bounds[0], 0.0);
+    EXPECT_EQ(bounds[2], 1.0);
+    EXPECT_EQ(seconds, std::vector<double>(2 * apart, 0.0));
+    // Frames whose time is each thread's fraction times its cost a row: equal times at 3 to 1.
+    const auto frames = [&](double cost0, double cost1, int count) {
+        for (int f = 0; f < count; ++f) {
+            seconds[0] = (bounds[1] - bounds[0]) * cost0, seconds[apart] = (bounds[2] - bounds[1]) * cost1;
+            balanceRowShares(bounds, seconds, apart);
+        }
+    };
+    frames(1, 3, 100);
+    EXPECT_NEAR(bounds[1], 0.75, 1e-6);
+    frames(1, 1000, 100);
+    EXPECT_GE(bounds[2] - bounds[1], 0.2 / 2);
+    EXPECT_LT(bounds[2] - bounds[1], 0.25 / 2);
+    // A thread that ran no rows leaves the shares as they are.
+    const std::vector<double> before = bounds;
+    seconds[0] = 1.0, seconds[apart] = 0.0;
+    balanceRowShares(bounds, seconds, apart);
+    EXPECT_EQ(bounds, before);
+    EXPECT_EQ(seconds, std::vector<double>(2 * apart, 0.0));
+}
+
+// Shares that move from frame to frame (with the threads' speeds) still give every row once:
+// each frame of a changing sequence the same bits as one thread's.
+// Both ways of sharing: by work over a level (the per-level table as built) and every group in
+// turn (the tiled form's rows, in walk order).
+TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
+    const Refined r = refineModel(test::dataPath("cow.obj"), 5);
+    const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
+    ASSERT_LT(tiled.rows.walkFrom, tiled.rows.levels.size());
+    const auto frames = [&](CpuEvaluator<float>& one, CpuEvaluator<float>& three, const char* form) {
+        std::vector<float> control(r.loaded.mesh.positions.size());
+        std::vector<float> expected(3 * std::size_t(one.refinedCount())), got(expected.size());
+        for (int frame = 0; frame < 20; ++frame) {
+            for (std::size_t i = 0; i < control.size(); ++i)
+                control[i] = float(r.loaded.mesh.positions[i] + 0.01 * std::sin(double(i) + frame));
+            one.evaluate(control, expected);
+            three.evaluate(control, got);
+            ASSERT_EQ(expected, got) << form << ", frame " << frame;
+        }
+    };
+    CpuEvaluator<float> one(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 1);
+    CpuEvaluator<float> three(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 3);
+    frames(one, three, "per-level");
+    CpuEvaluator<float> tiledOne(tiled, 3, 1), tiledThree(tiled, 3, 3);
+    frames(tiledOne, tiledThree, "tiled");
+}
+
 TEST(Evaluator, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {
     const Refined r = refineModel(test::dataPath("spot_control_mesh.obj"), 3);
     const double scale = diagonal(r.loaded.mesh.positions);

@@ -64,6 +64,18 @@ struct RowReads {
 // `copied` should mark for a frame that reads so.
 bool readsNarrowRows(const RowGroup& group, const RowReads& reads);
 
+// The CPU evaluator's threads' shares of a frame's rows. Thread t of n takes the rows of each
+// group (or of a level's work) from rowShareStart(count, bounds, t, n) to rowShareStart(count,
+// bounds, t + 1, n): from the fraction bounds[t] of them (ascending, bounds[0] = 0, bounds[n] = 1),
+// so that consecutive threads' shares meet exactly, whatever the fractions.
+std::uint64_t rowShareStart(std::uint64_t count, const double* bounds, std::uint64_t t, std::uint64_t n);
+// After a frame: moves each thread's fraction (bounds, n + 1 values) a quarter of the way toward
+// its share of the team's speed in that frame (its fraction over seconds[secondsApart t], the
+// seconds it spent on its rows), none under a fifth of an even share, so that a thread on a
+// slower core (a virtual CPU whose sibling another guest loads, an efficiency core) gets fewer
+// rows; then zeroes `seconds`. Leaves the fractions as they are where a thread spent no time.
+void balanceRowShares(std::span<double> bounds, std::span<double> seconds, std::size_t secondsApart);
+
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
 // VertexFromFacePoints rows (a level's last groups) read `destination`: the level's rows before
@@ -260,6 +272,11 @@ private:
     NormalWindow window_;      // normals() in one pass (planNormalWindow; not planned: two passes)
     NormalWindow restWindow_;  // the tiled form's rest in one pass (planRestWindow)
     const TiledTable* tiled_ = nullptr;
+    // The threads' shares of a frame's rows (fractions: thread t's from rowBounds_[t] to
+    // rowBounds_[t + 1]), moved after each frame toward how fast each thread ran its rows, and
+    // the seconds each spent on them in the frame (every 8th value; compute/cpu_evaluator.cpp).
+    std::vector<double> rowBounds_;
+    std::vector<double> rowSeconds_;
     TileNormalSets tileNormals_;  // tiled form: normals in the tile pass, where worthIt
 };
 
