@@ -136,7 +136,8 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
         }
         return last;
     };
-    return {t == 0 ? first : rowAt(rowShareStart(total, bounds, t, n)), t + 1 == n ? last : rowAt(rowShareStart(total, bounds, t + 1, n))};
+    return {t == 0 ? first : rowAt(rowShareStart(total, bounds, t, n)),
+            t + 1 == n ? last : rowAt(rowShareStart(total, bounds, t + 1, n))};
 }
 
 // The first of a level's VertexFromFacePoints groups (its last ones), or groupEnd: the rows
@@ -151,9 +152,9 @@ std::uint64_t facePointGroupsBegin(const PerLevelTable& table, const StencilLeve
 // `destination`: its share (the fractions `bounds`) of every row group on the table's
 // region-ordered and walk-ordered levels (each thread one region of the mesh at each level,
 // reading mostly its own writes: docs/design.md, "Threads and regions"; a group's rows have one
-// shape, so equal counts are equal work), else shareByWork's one range. On the cow at 7 steps in walk order the even
-// shares took 4.0-4.2 ms a frame, shareByWork's 5.4-5.7 (its range gives one thread most face
-// points, the other most vertex points).
+// shape, so equal counts are equal work), else shareByWork's one range. On the cow at 7 steps in
+// walk order the even shares took 4.0-4.2 ms a frame, shareByWork's 5.4-5.7 (its range gives one
+// thread most face points, the other most vertex points).
 template <class T>
 void evaluateGroupsShare(const PerLevelTable& table, std::size_t k, std::uint64_t groupBegin, std::uint64_t groupEnd,
                          const T* source, BufferLayout layout, T* destination, RowReads reads, const double* bounds) {
@@ -166,7 +167,8 @@ void evaluateGroupsShare(const PerLevelTable& table, std::size_t k, std::uint64_
     }
     for (std::uint64_t g = groupBegin; g < groupEnd; ++g) {
         const RowGroup& group = table.groups[g];
-        const std::uint64_t begin = rowShareStart(group.rowCount, bounds, t, n), end = rowShareStart(group.rowCount, bounds, t + 1, n);
+        const std::uint64_t begin = rowShareStart(group.rowCount, bounds, t, n),
+                            end = rowShareStart(group.rowCount, bounds, t + 1, n);
         const std::uint64_t first = group.rowBegin - level.rowBegin;
         if (begin < end)
             evaluateLevelRows(table, k, source, layout, destination, layout, first + begin, first + end, reads);
@@ -227,8 +229,6 @@ RowShares rowShares(std::vector<double>& bounds, std::vector<double>& seconds, i
     }
     return {bounds.data(), seconds.data()};
 }
-
-
 
 // Threads worth starting for `values` output values: a parallel region and its barriers cost
 // microseconds (milliseconds when the machine is oversubscribed), so small meshes run on one.
@@ -938,17 +938,22 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
 template <class T>
 void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out, const NormalWindow& w) const {
     if constexpr (std::is_same_v<T, float>) {
-        // This thread's blocks: an even share of them, or of their work where the plan weighs
-        // it (w.work: a tiled form's rest costs more at its tiles' borders than in its fallback).
-        const std::uint64_t blocks = w.to.size();
+        // This thread's blocks: its share of them, or of their work where the plan weighs it
+        // (w.work: a tiled form's rest costs more at its tiles' borders than in its fallback),
+        // by the rows' fractions where the team is theirs (the threads' speeds), else even.
+        const std::uint64_t blocks = w.to.size(), n = std::uint64_t(omp_get_num_threads());
+        const double* bounds = rowBounds_.size() == n + 1 ? rowBounds_.data() : nullptr;
+        const auto shareAt = [&](std::uint64_t count, std::uint64_t t) {
+            return bounds ? rowShareStart(count, bounds, t, n) : count * t / n;
+        };
         const auto blockAt = [&](std::uint64_t t) {
-            if (w.work.empty()) return blocks * t / std::uint64_t(omp_get_num_threads());
-            const std::uint64_t goal = w.work.back() * t / std::uint64_t(omp_get_num_threads());
+            if (w.work.empty()) return shareAt(blocks, t);
+            const std::uint64_t goal = shareAt(w.work.back(), t);
             return std::uint64_t(std::lower_bound(w.work.begin(), w.work.end(), goal) - w.work.begin());
         };
         const std::uint64_t thread = std::uint64_t(omp_get_thread_num());
         const std::pair<std::uint64_t, std::uint64_t> blockShare{thread == 0 ? 0 : blockAt(thread),
-                                                                 thread + 1 == std::uint64_t(omp_get_num_threads()) ? blocks : blockAt(thread + 1)};
+                                                                 thread + 1 == n ? blocks : blockAt(thread + 1)};
         if (blockShare.first >= blockShare.second) return;
         float* window = threadScratch<float>(4 * std::size_t(kWindowFaces));
         const std::uint32_t* faceVerts = w.wideCorners.empty() ? surface_.faceVerts.data() : w.wideCorners.data();

@@ -590,7 +590,8 @@ TEST(Evaluator, RowSharesMoveTowardTheFasterThread) {
 // Shares that move from frame to frame (with the threads' speeds) still give every row once:
 // each frame of a changing sequence the same bits as one thread's.
 // Both ways of sharing: by work over a level (the per-level table as built) and every group in
-// turn (the tiled form's rows, in walk order).
+// turn (the tiled form's rows, in walk order); and the normals (every other frame), whose one
+// pass (the tiled form's drawing order) takes the rows' shares.
 TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
     const Refined r = refineModel(test::dataPath("cow.obj"), 5);
     const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
@@ -598,11 +599,18 @@ TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
     const auto frames = [&](CpuEvaluator<float>& one, CpuEvaluator<float>& three, const char* form) {
         std::vector<float> control(r.loaded.mesh.positions.size());
         std::vector<float> expected(3 * std::size_t(one.refinedCount())), got(expected.size());
+        std::vector<float> expectedNormals(expected.size()), gotNormals(expected.size());
         for (int frame = 0; frame < 20; ++frame) {
             for (std::size_t i = 0; i < control.size(); ++i)
                 control[i] = float(r.loaded.mesh.positions[i] + 0.01 * std::sin(double(i) + frame));
-            one.evaluate(control, expected);
-            three.evaluate(control, got);
+            if (frame % 2 == 0) {
+                one.evaluate(control, expected);
+                three.evaluate(control, got);
+            } else {
+                one.evaluate(control, expected, expectedNormals);
+                three.evaluate(control, got, gotNormals);
+                ASSERT_EQ(expectedNormals, gotNormals) << form << ", frame " << frame;
+            }
             ASSERT_EQ(expected, got) << form << ", frame " << frame;
         }
     };
@@ -610,6 +618,7 @@ TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
     CpuEvaluator<float> three(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 3);
     frames(one, three, "per-level");
     CpuEvaluator<float> tiledOne(tiled, 3, 1), tiledThree(tiled, 3, 3);
+    ASSERT_TRUE(tiledThree.normalsInOnePass());
     frames(tiledOne, tiledThree, "tiled");
 }
 
