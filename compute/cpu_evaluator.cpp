@@ -43,6 +43,30 @@ void balanceRowShares(std::span<double> bounds, std::span<double> seconds, std::
     std::fill(seconds.begin(), seconds.end(), 0.0);
 }
 
+static void spinPause() {
+#if defined(__SSE2__)
+    _mm_pause();
+#endif
+}
+
+void TeamBarrier::wait() {
+    const auto threads = std::uint32_t(omp_get_num_threads());
+    if (threads == 1) return;
+    const std::uint32_t generation = generation_.load(std::memory_order_acquire);
+    if (arrived_.fetch_add(1, std::memory_order_acq_rel) + 1 == threads) {
+        arrived_.store(0, std::memory_order_relaxed);
+        generation_.store(generation + 1, std::memory_order_release);
+        return;
+    }
+    constexpr std::uint32_t kSpins = 1u << 14;  // 0.05-0.6 ms of pauses (10-140 cycles each)
+    for (std::uint32_t spins = 0; generation_.load(std::memory_order_acquire) == generation; ++spins) {
+        if (spins < kSpins)
+            spinPause();
+        else
+            std::this_thread::yield();
+    }
+}
+
 namespace {
 
 #if defined(__SSE2__)
@@ -52,40 +76,6 @@ constexpr bool kSimd = false;
 #endif
 
 constexpr std::uint64_t kLevelPadding = 4;  // values after each intermediate level (allocate)
-
-// The barrier between a frame's row phases (two a level), for the team of the parallel region
-// that shares it. libgomp's `omp barrier` makes a system call to wake sleepers each time, about
-// 1.5 us on a 2-vCPU VM against 0.4 us for this one (bench/README.md, "Session 37"). It spins,
-// then yields the core at each look (a machine with more threads than cores).
-class TeamBarrier {
-public:
-    void wait() {
-        const auto threads = std::uint32_t(omp_get_num_threads());
-        if (threads == 1) return;
-        const std::uint32_t generation = generation_.load(std::memory_order_acquire);
-        if (arrived_.fetch_add(1, std::memory_order_acq_rel) + 1 == threads) {
-            arrived_.store(0, std::memory_order_relaxed);
-            generation_.store(generation + 1, std::memory_order_release);
-            return;
-        }
-        constexpr std::uint32_t kSpins = 1u << 14;  // 0.05-0.6 ms of pauses (10-140 cycles each)
-        for (std::uint32_t spins = 0; generation_.load(std::memory_order_acquire) == generation; ++spins) {
-            if (spins < kSpins)
-                pause();
-            else
-                std::this_thread::yield();
-        }
-    }
-
-private:
-    static void pause() {
-#if defined(__SSE2__)
-        _mm_pause();
-#endif
-    }
-    alignas(64) std::atomic<std::uint32_t> arrived_{0};
-    alignas(64) std::atomic<std::uint32_t> generation_{0};
-};
 
 // normals() in one pass (windowedNormalsSimd): vertices a block of 32 at a time, face normals in
 // a window of 8192 (128 KB, in the second-level cache; the cow at 7 steps in drawing order needs
@@ -104,10 +94,16 @@ constexpr std::uint32_t kRingFace = UINT32_MAX;
 // a little faster than 0, 4 and 6 slower).
 constexpr std::uint64_t kBorderWork = 2;
 
-// This thread's share [begin, end) of `rows` rows.
-std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t rows) {
+// Where thread t of n's share of `count` items begins: at the fraction `bounds` gives it where
+// they are a team of n's (the rows' shares, moved toward the threads' speeds), else evenly.
+std::uint64_t shareStart(std::uint64_t count, const std::vector<double>& bounds, std::uint64_t t, std::uint64_t n) {
+    return bounds.size() == n + 1 ? rowShareStart(count, bounds.data(), t, n) : count * t / n;
+}
+
+// This thread's share [begin, end) of `count` items (rows, faces, vertices), as shareStart.
+std::pair<std::uint64_t, std::uint64_t> share(std::uint64_t count, const std::vector<double>& bounds) {
     const std::uint64_t t = std::uint64_t(omp_get_thread_num()), n = std::uint64_t(omp_get_num_threads());
-    return {rows * t / n, rows * (t + 1) / n};
+    return {shareStart(count, bounds, t, n), shareStart(count, bounds, t + 1, n)};
 }
 
 // This thread's share of groups [groupBegin, groupEnd) of a level's rows (their rows within the
@@ -520,12 +516,16 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     const BufferLayout packed{0, width_, width_};
     const int team = perLevelFrameThreads(perLevel_, width_, threads_);
     if (form_ == TableForm::Factorized) {
+        const RowShares shares = rowShares(rowBounds_, rowSeconds_, team);
 #pragma omp parallel num_threads(team) if (team > 1)
         {
-            const auto [begin, end] = share(factorized_.rowCount());
+            const double start = omp_get_wtime();
+            const auto [begin, end] = share(factorized_.rowCount(), rowBounds_);
             evaluateFactorizedRows(factorized_, control.data(), packed, refined.data(), packed,
                                    std::uint32_t(begin), std::uint32_t(end));
+            shares.seconds[kSecondsApart * std::size_t(omp_get_thread_num())] += omp_get_wtime() - start;
         }
+        balanceRowShares(rowBounds_, rowSeconds_, kSecondsApart);
         return;
     }
     if (form_ == TableForm::Tiled) return evaluateTiled(control, refined, nullptr, team);
@@ -646,7 +646,7 @@ void CpuEvaluator<T>::faceNormalsScalar(const T* p, const std::vector<std::uint3
     T* faceNormals = faceNormals_.data();
     const std::uint32_t* faceOffsets = surface_.faceOffsets.data();
     const std::uint32_t* faceVerts = surface_.faceVerts.data();
-    const auto [fBegin, fEnd] = share(faces);
+    const auto [fBegin, fEnd] = share(faces, rowBounds_);
     for (std::uint32_t i = std::uint32_t(fBegin); i < std::uint32_t(fEnd); ++i) {
         const std::uint32_t f = only ? (*only)[i] : i;
         T n0 = 0, n1 = 0, n2 = 0;
@@ -683,7 +683,7 @@ void CpuEvaluator<T>::vertexNormalsScalar(T* out, const std::vector<std::uint32_
     const T* faceNormals = faceNormals_.data();
     const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
     const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
-    const auto [vBegin, vEnd] = share(only ? only->size() : surface_.vertexCount);
+    const auto [vBegin, vEnd] = share(only ? only->size() : surface_.vertexCount, rowBounds_);
     for (std::uint32_t i = std::uint32_t(vBegin); i < std::uint32_t(vEnd); ++i) {
         const std::uint32_t v = only ? (*only)[i] : i;
         T n[4] = {0, 0, 0, 0};
@@ -808,7 +808,7 @@ void CpuEvaluator<T>::faceNormalsSimd(const T* p, const std::vector<std::uint32_
         const std::uint32_t* faceVerts = surface_.faceVerts.data();
         // Plain variables, not a structured binding: the lambdas below use them, and clang
         // before 16 refuses a lambda that captures a binding.
-        const std::pair<std::uint64_t, std::uint64_t> faceShare = share(faces);
+        const std::pair<std::uint64_t, std::uint64_t> faceShare = share(faces, rowBounds_);
         const std::uint64_t fBegin = faceShare.first, fEnd = faceShare.second;
         constexpr std::uint32_t kAhead = 16;  // faces prefetched ahead
         const bool prefetch = prefetchNormals_;
@@ -893,7 +893,7 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
         const std::uint32_t* vertexOffsets = surface_.vertexOffsets.data();
         const std::uint32_t* vertexFaces = surface_.vertexFaces.data();
         // Plain variables for the lambdas below (as in the face pass).
-        const std::pair<std::uint64_t, std::uint64_t> vertexShare = share(only ? only->size() : surface_.vertexCount);
+        const std::pair<std::uint64_t, std::uint64_t> vertexShare = share(only ? only->size() : surface_.vertexCount, rowBounds_);
         const std::uint64_t vBegin = vertexShare.first, vEnd = vertexShare.second;
         if (vBegin == vEnd) return;
         constexpr std::uint32_t kAhead = 24;  // face references prefetched ahead (all vertices)
@@ -942,10 +942,7 @@ void CpuEvaluator<T>::windowedNormalsSimd(const T* p, T* out, const NormalWindow
         // (w.work: a tiled form's rest costs more at its tiles' borders than in its fallback),
         // by the rows' fractions where the team is theirs (the threads' speeds), else even.
         const std::uint64_t blocks = w.to.size(), n = std::uint64_t(omp_get_num_threads());
-        const double* bounds = rowBounds_.size() == n + 1 ? rowBounds_.data() : nullptr;
-        const auto shareAt = [&](std::uint64_t count, std::uint64_t t) {
-            return bounds ? rowShareStart(count, bounds, t, n) : count * t / n;
-        };
+        const auto shareAt = [&](std::uint64_t count, std::uint64_t t) { return shareStart(count, rowBounds_, t, n); };
         const auto blockAt = [&](std::uint64_t t) {
             if (w.work.empty()) return shareAt(blocks, t);
             const std::uint64_t goal = shareAt(w.work.back(), t);

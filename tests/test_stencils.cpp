@@ -7,9 +7,11 @@
 #include "test_support.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -587,22 +589,50 @@ TEST(Evaluator, RowSharesMoveTowardTheFasterThread) {
     EXPECT_EQ(seconds, std::vector<double>(2 * apart, 0.0));
 }
 
+// The evaluator's barrier, many phases in a row: each thread writes its slot, waits, reads every
+// slot (each must hold this phase's number: no thread left before all had written, and the
+// writes are visible), and waits again before the next write. On two threads, and on more
+// threads than this machine has cores, where the waiting threads stop spinning and yield.
+TEST(Evaluator, TeamBarrierLetsNoThreadPassBeforeAllArrive) {
+    for (const int threads : {2, 7}) {
+        const int phases = threads == 2 ? 20000 : 300;
+        TeamBarrier barrier;
+        std::vector<int> slots(16 * std::size_t(threads), -1);  // a cache line a thread
+        std::atomic<int> team{0}, stale{0};
+#pragma omp parallel num_threads(threads)
+        {
+            const std::size_t t = std::size_t(omp_get_thread_num()), n = std::size_t(omp_get_num_threads());
+            if (t == 0) team = int(n);
+            for (int phase = 0; phase < phases; ++phase) {
+                slots[16 * t] = phase;
+                barrier.wait();
+                for (std::size_t u = 0; u < n; ++u)
+                    if (slots[16 * u] != phase) stale.fetch_add(1, std::memory_order_relaxed);
+                barrier.wait();
+            }
+        }
+        ASSERT_EQ(team.load(), threads) << "OpenMP gave another team size";
+        EXPECT_EQ(stale.load(), 0) << threads << " threads: slots read before their thread reached the barrier";
+    }
+}
+
 // Shares that move from frame to frame (with the threads' speeds) still give every row once:
 // each frame of a changing sequence the same bits as one thread's.
-// Both ways of sharing: by work over a level (the per-level table as built) and every group in
-// turn (the tiled form's rows, in walk order); and the normals (every other frame), whose one
-// pass (the tiled form's drawing order) takes the rows' shares.
+// Every way of sharing: by work over a level (the per-level table as built), every group in
+// turn (the tiled form's rows, in walk order), the factorized table's one range; and the normals
+// (every other frame), whose one pass (the tiled form's drawing order) and two passes (fewer
+// than 2^17 faces) take the rows' shares.
 TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
-    const Refined r = refineModel(test::dataPath("cow.obj"), 5);
+    const Refined r = refineModel(test::dataPath("cow.obj"), 5), small = refineModel(test::dataPath("cow.obj"), 3);
     const TiledTable tiled = buildTiledTable(r.hierarchy, r.perLevel);
     ASSERT_LT(tiled.rows.walkFrom, tiled.rows.levels.size());
-    const auto frames = [&](CpuEvaluator<float>& one, CpuEvaluator<float>& three, const char* form) {
-        std::vector<float> control(r.loaded.mesh.positions.size());
+    const auto frames = [](const Refined& model, CpuEvaluator<float>& one, CpuEvaluator<float>& three, const char* form) {
+        std::vector<float> control(model.loaded.mesh.positions.size());
         std::vector<float> expected(3 * std::size_t(one.refinedCount())), got(expected.size());
         std::vector<float> expectedNormals(expected.size()), gotNormals(expected.size());
         for (int frame = 0; frame < 20; ++frame) {
             for (std::size_t i = 0; i < control.size(); ++i)
-                control[i] = float(r.loaded.mesh.positions[i] + 0.01 * std::sin(double(i) + frame));
+                control[i] = float(model.loaded.mesh.positions[i] + 0.01 * std::sin(double(i) + frame));
             if (frame % 2 == 0) {
                 one.evaluate(control, expected);
                 three.evaluate(control, got);
@@ -616,10 +646,17 @@ TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
     };
     CpuEvaluator<float> one(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 1);
     CpuEvaluator<float> three(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 3);
-    frames(one, three, "per-level");
+    frames(r, one, three, "per-level");
     CpuEvaluator<float> tiledOne(tiled, 3, 1), tiledThree(tiled, 3, 3);
     ASSERT_TRUE(tiledThree.normalsInOnePass());
-    frames(tiledOne, tiledThree, "tiled");
+    frames(r, tiledOne, tiledThree, "tiled");
+    CpuEvaluator<float> factorizedOne(r.perLevel, r.factorized, r.surface, TableForm::Factorized, 3, 1);
+    CpuEvaluator<float> factorizedThree(r.perLevel, r.factorized, r.surface, TableForm::Factorized, 3, 3);
+    frames(r, factorizedOne, factorizedThree, "factorized");
+    CpuEvaluator<float> smallOne(small.perLevel, small.factorized, small.surface, TableForm::PerLevel, 3, 1);
+    CpuEvaluator<float> smallThree(small.perLevel, small.factorized, small.surface, TableForm::PerLevel, 3, 3);
+    ASSERT_FALSE(smallThree.normalsInOnePass());
+    frames(small, smallOne, smallThree, "per-level, two passes of normals");
 }
 
 TEST(Evaluator, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {

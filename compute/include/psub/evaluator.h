@@ -7,6 +7,7 @@
 #include "psub/tables.h"
 #include "psub/tiled.h"
 
+#include <atomic>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -75,6 +76,21 @@ std::uint64_t rowShareStart(std::uint64_t count, const double* bounds, std::uint
 // slower core (a virtual CPU whose sibling another guest loads, an efficiency core) gets fewer
 // rows; then zeroes `seconds`. Leaves the fractions as they are where a thread spent no time.
 void balanceRowShares(std::span<double> bounds, std::span<double> seconds, std::size_t secondsApart);
+
+// The barrier between a frame's row phases (two a level), shared by the team of the OpenMP
+// parallel region that waits at it: no thread leaves wait() before every thread of the team has
+// entered it, and what each wrote before is visible to all after. libgomp's `omp barrier` makes
+// a system call to wake sleepers each time, about 1.5 us on a 2-vCPU VM against 0.4 us for this
+// one (bench/README.md, "Session 37"). It spins, then yields the core at each look (more
+// threads than cores). Reusable: one object for every phase of a frame.
+class TeamBarrier {
+public:
+    void wait();
+
+private:
+    alignas(64) std::atomic<std::uint32_t> arrived_{0};
+    alignas(64) std::atomic<std::uint32_t> generation_{0};
+};
 
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
@@ -204,8 +220,9 @@ public:
     std::uint64_t narrowBytesSaved() const { return psub::narrowBytesSaved(perLevel_, narrow_); }
 
 private:
-    // The two passes of normals(), run by each thread of its team on its share: of every face
-    // and vertex, or (`only` not null) of the listed ones.
+    // The two passes of normals(), run by each thread of its team on its share (by the rows'
+    // fractions, rowBounds_, where the team is theirs): of every face and vertex, or (`only`
+    // not null) of the listed ones.
     void faceNormalsScalar(const T* positions, const std::vector<std::uint32_t>* only = nullptr);
     void vertexNormalsScalar(T* normals, const std::vector<std::uint32_t>* only = nullptr) const;
     void faceNormalsSimd(const T* positions, const std::vector<std::uint32_t>* only = nullptr);  // float only
