@@ -7,7 +7,7 @@
 // draw the picture of the copy path (forced by PSUB_VIEW_CPU_UPLOAD=copy). Without Xvfb or a
 // device these fail, unless PSUB_ALLOW_NO_VULKAN=1.
 #include "psub/image.h"
-#include "test_support.h"
+#include "view_test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -26,91 +26,17 @@ namespace fs = std::filesystem;
 
 using test::contains;
 
-std::string temp(const std::string& name) {
-    return testing::TempDir() + "/psub-view-frames-" + std::to_string(::getpid()) + "-" + name;
-}
+using test::closeEnough;
+using test::expectClean;
+using test::logField;
+using test::logLines;
+using test::view;
+using test::viewScript;
+using test::viewTemp;
 
 std::string q(const std::string& path) { return test::quoted(path); }
 
-// `psub view ARGS` under a fresh Xvfb server with the validation layer on, and `environment`
-// (VAR=value words) too.
-test::PsubRun view(const std::string& args, const std::string& environment = "") {
-    test::PsubHow how;
-    how.environment = std::string(test::kNoLeakCheck) + " PSUB_VULKAN_VALIDATION=1 " + environment;
-    how.prefix = "xvfb-run -a -s '-screen 0 1600x1200x24'";
-    return test::runPsub("view " + args, how);
-}
-
-// Why psub view cannot run here (asked once): empty when it can.
-const std::string& windowProblem() {
-    static const std::string problem = [] {
-        if (std::system("command -v xvfb-run >/dev/null 2>&1") != 0) return std::string("xvfb-run is not installed");
-        const test::PsubRun r = view(q(test::dataPath("cube.obj")) + " --levels 1 --frames 1");
-        return r.status == 0 ? std::string() : "psub view failed: " + r.err;
-    }();
-    return problem;
-}
-
-class ViewFrames : public ::testing::Test {
-protected:
-    void SetUp() override {
-        if (windowProblem().empty()) return;
-        if (test::noVulkanAllowed()) GTEST_SKIP() << "no window (allowed by PSUB_ALLOW_NO_VULKAN=1): " << windowProblem();
-        FAIL() << "no window: " << windowProblem() << " (set PSUB_ALLOW_NO_VULKAN=1 to skip)";
-    }
-};
-
-void expectClean(const test::PsubRun& r) {
-    EXPECT_EQ(r.status, 0) << r.err;
-    EXPECT_FALSE(contains(r.err, "alidation")) << r.err;
-}
-
-std::string script(const std::string& name, const std::string& text) {
-    const std::string path = temp(name);
-    std::ofstream(path) << text;
-    return path;
-}
-
-// The number after "key": in one JSON line.
-double field(const std::string& line, const std::string& key) {
-    const std::size_t at = line.find("\"" + key + "\": ");
-    if (at == std::string::npos) {
-        ADD_FAILURE() << "no " << key << " in " << line;
-        return -1;
-    }
-    return std::strtod(line.c_str() + at + key.size() + 4, nullptr);
-}
-
-std::vector<std::string> logLines(const std::string& path) {
-    std::ifstream in(path);
-    std::vector<std::string> lines;
-    for (std::string line; std::getline(in, line);) lines.push_back(line);
-    return lines;
-}
-
-// The screenshot tolerance of psub view's tests: mean absolute difference <= 2/255 per channel,
-// at most 1% of pixels off by more than 16/255 in some channel.
-bool closeEnough(const Image& a, const Image& b, std::string& why) {
-    if (a.width != b.width || a.height != b.height || a.rgba.size() != b.rgba.size()) {
-        why = "sizes differ";
-        return false;
-    }
-    double sum[3] = {0, 0, 0};
-    std::size_t off = 0;
-    for (std::size_t i = 0; i < a.rgba.size(); i += 4) {
-        bool far = false;
-        for (std::size_t c = 0; c < 3; ++c) {
-            const int d = std::abs(int(a.rgba[i + c]) - int(b.rgba[i + c]));
-            sum[c] += d;
-            far = far || d > 16;
-        }
-        off += far;
-    }
-    const double pixels = double(a.width) * a.height;
-    why = "mean differences " + std::to_string(sum[0] / pixels) + ", " + std::to_string(sum[1] / pixels) + ", " +
-          std::to_string(sum[2] / pixels) + "; " + std::to_string(off) + " pixels far off";
-    return sum[0] / pixels <= 2 && sum[1] / pixels <= 2 && sum[2] / pixels <= 2 && double(off) <= 0.01 * pixels;
-}
+class ViewFrames : public test::WindowTest {};
 
 class FramesInFlight : public ViewFrames, public ::testing::WithParamInterface<const char*> {};
 
@@ -121,9 +47,9 @@ class FramesInFlight : public ViewFrames, public ::testing::WithParamInterface<c
 TEST_P(FramesInFlight, SlotsAlternateAndThePictureIsTheOneAtATimeOne) {
     const std::string backend = GetParam();
     const std::string base = q(test::dataPath("spot_control_mesh.obj")) + " --levels 2 --anim twist --step 0.07 --size 320x240 "
-                             "--no-hud --backend " + backend + " --script " + q(script("fif.txt", "3 drag left 30 -10\n"));
-    const std::string two = temp("two.png"), one = temp("one.png"), earlier = temp("earlier.png");
-    const std::string twoLog = temp("two.jsonl"), oneLog = temp("one.jsonl");
+                             "--no-hud --backend " + backend + " --script " + q(viewScript("fif.txt", "3 drag left 30 -10\n"));
+    const std::string two = viewTemp("two.png"), one = viewTemp("one.png"), earlier = viewTemp("earlier.png");
+    const std::string twoLog = viewTemp("two.jsonl"), oneLog = viewTemp("one.jsonl");
     expectClean(view(base + " --frames 10 --screenshot " + q(two) + " --log " + q(twoLog)));
     expectClean(view(base + " --frames 10 --frames-in-flight 1 --screenshot " + q(one) + " --log " + q(oneLog)));
     expectClean(view(base + " --frames 9 --screenshot " + q(earlier)));
@@ -132,12 +58,12 @@ TEST_P(FramesInFlight, SlotsAlternateAndThePictureIsTheOneAtATimeOne) {
     ASSERT_EQ(twoLines.size(), 10u);
     ASSERT_EQ(oneLines.size(), 10u);
     for (std::size_t i = 0; i < twoLines.size(); ++i) {
-        EXPECT_EQ(field(twoLines[i], "frame"), double(i));
-        EXPECT_EQ(field(twoLines[i], "frames_in_flight"), 2) << twoLines[i];
-        EXPECT_EQ(field(twoLines[i], "slot"), double(i % 2)) << twoLines[i];
-        EXPECT_EQ(field(twoLines[i], "validation_messages"), 0);
-        EXPECT_EQ(field(oneLines[i], "frames_in_flight"), 1) << oneLines[i];
-        EXPECT_EQ(field(oneLines[i], "slot"), 0) << oneLines[i];
+        EXPECT_EQ(logField(twoLines[i], "frame"), double(i));
+        EXPECT_EQ(logField(twoLines[i], "frames_in_flight"), 2) << twoLines[i];
+        EXPECT_EQ(logField(twoLines[i], "slot"), double(i % 2)) << twoLines[i];
+        EXPECT_EQ(logField(twoLines[i], "validation_messages"), 0);
+        EXPECT_EQ(logField(oneLines[i], "frames_in_flight"), 1) << oneLines[i];
+        EXPECT_EQ(logField(oneLines[i], "slot"), 0) << oneLines[i];
     }
     const Image a = readPng(two), b = readPng(one), c = readPng(earlier);
     std::string why;
@@ -162,23 +88,23 @@ TEST_F(ViewFrames, SchemeAndWireframeKeysReuseTheirRenderers) {
         for (int k = 3; k < 6; ++k) keys += std::to_string(start + k) + " key w\n";
     }
     keys += "30 resize 360 260\n";
-    const std::string log = temp("keys.jsonl");
+    const std::string log = viewTemp("keys.jsonl");
     expectClean(view(q(test::dataPath("cube.obj")) + " --levels 2 --size 320x240 --frames 33 --script " +
-                     q(script("keys.txt", keys)) + " --log " + q(log)));
+                     q(viewScript("keys.txt", keys)) + " --log " + q(log)));
     const std::vector<std::string> lines = logLines(log);
     ASSERT_EQ(lines.size(), 33u);
     EXPECT_TRUE(contains(lines[1], "\"scheme\": \"cc\"")) << lines[1];
     EXPECT_TRUE(contains(lines[2], "\"scheme\": \"both\"")) << lines[2];
     EXPECT_TRUE(contains(lines[5], "\"wireframe\": \"control\"")) << lines[5];
     EXPECT_TRUE(contains(lines[23], "\"scheme\": \"both\"")) << lines[23];
-    const double atFrame0 = field(lines[0], "renderers_created");
+    const double atFrame0 = logField(lines[0], "renderers_created");
     EXPECT_EQ(atFrame0, 8) << "2 slots x 2 schemes x 2 layouts, made before the first frame";
     for (std::size_t i = 1; i < 30; ++i)
-        EXPECT_EQ(field(lines[i], "renderers_created"), atFrame0) << "s or w made a renderer: " << lines[i];
-    EXPECT_EQ(field(lines[29], "width"), 320);
-    EXPECT_EQ(field(lines[30], "width"), 360);
-    EXPECT_EQ(field(lines[32], "renderers_created"), 2 * atFrame0) << "a resize makes them again at the new size";
-    for (const std::string& line : lines) EXPECT_EQ(field(line, "validation_messages"), 0);
+        EXPECT_EQ(logField(lines[i], "renderers_created"), atFrame0) << "s or w made a renderer: " << lines[i];
+    EXPECT_EQ(logField(lines[29], "width"), 320);
+    EXPECT_EQ(logField(lines[30], "width"), 360);
+    EXPECT_EQ(logField(lines[32], "renderers_created"), 2 * atFrame0) << "a resize makes them again at the new size";
+    for (const std::string& line : lines) EXPECT_EQ(logField(line, "validation_messages"), 0);
     fs::remove(log);
 }
 
@@ -192,9 +118,9 @@ TEST_F(ViewFrames, CpuVerticesWrittenInPlaceDrawTheCopiedPicture) {
     for (const std::string keys : {"", "1 key s\n2 key s\n3 key w\n"}) {
         const std::string base = q(test::dataPath("spot_control_mesh.obj")) +
                                  " --levels 2 --form per-level --anim twist --step 0.07 --size 320x240 --no-hud --frames 6 --script " +
-                                 q(script("upload.txt", keys));
-        const std::string direct = temp("direct.png"), copy = temp("copy.png");
-        const std::string directLog = temp("direct.jsonl"), copyLog = temp("copy.jsonl");
+                                 q(viewScript("upload.txt", keys));
+        const std::string direct = viewTemp("direct.png"), copy = viewTemp("copy.png");
+        const std::string directLog = viewTemp("direct.jsonl"), copyLog = viewTemp("copy.jsonl");
         expectClean(view(base + " --screenshot " + q(direct) + " --log " + q(directLog)));
         expectClean(view(base + " --screenshot " + q(copy) + " --log " + q(copyLog), "PSUB_VIEW_CPU_UPLOAD=copy"));
         const std::vector<std::string> directLines = logLines(directLog), copyLines = logLines(copyLog);
