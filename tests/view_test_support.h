@@ -1,7 +1,7 @@
 // What the tests of `psub view` as a program share: running it under a fresh Xvfb server with
 // the validation layer on, the one check that a window can open here (a failure without one; a
 // skip only with PSUB_ALLOW_NO_VULKAN=1), scripts and logs in the test temp dir, and the
-// screenshot tolerance. For test/test_view.cpp and test/test_view_frames.cpp.
+// screenshot tolerance. For tests/test_view.cpp and tests/test_view_frames.cpp.
 #pragma once
 
 #include "psub/image.h"
