@@ -217,7 +217,7 @@ void evaluateLevelShare(const PerLevelTable& table, std::size_t k, const T* sour
 
 // The rows' shares for a team of `team` threads: those of the frames before where the team was
 // the same, else even ones.
-RowShares rowShares(std::vector<double>& bounds, std::vector<double>& seconds, int team) {
+RowShares sharesForTeam(std::vector<double>& bounds, std::vector<double>& seconds, int team) {
     if (bounds.size() != std::size_t(team) + 1) {
         bounds.resize(std::size_t(team) + 1);
         for (int t = 0; t <= team; ++t) bounds[std::size_t(t)] = double(t) / double(team);
@@ -516,7 +516,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
     const BufferLayout packed{0, width_, width_};
     const int team = perLevelFrameThreads(perLevel_, width_, threads_);
     if (form_ == TableForm::Factorized) {
-        const RowShares shares = rowShares(rowBounds_, rowSeconds_, team);
+        const RowShares shares = sharesForTeam(rowBounds_, rowSeconds_, team);
 #pragma omp parallel num_threads(team) if (team > 1)
         {
             const double start = omp_get_wtime();
@@ -535,7 +535,7 @@ void CpuEvaluator<T>::evaluate(std::span<const T> control, std::span<T> refined)
         return;
     }
     TeamBarrier barrier;
-    const RowShares shares = rowShares(rowBounds_, rowSeconds_, team);
+    const RowShares shares = sharesForTeam(rowBounds_, rowSeconds_, team);
 #pragma omp parallel num_threads(team) if (team > 1)
     for (std::size_t k = 0; k < levels; ++k) {
         const T* source = k == 0 ? control.data() : levels_.data() + levelBase_[k - 1];
@@ -580,7 +580,7 @@ void CpuEvaluator<T>::evaluateTiled(std::span<const T> control, std::span<T> ref
         return TileNormals<T>{normals, faceNormals_.data(), tileNormals_.ringFaces.data() + tileNormals_.ringBegin[k]};
     };
     TeamBarrier barrier;
-    const RowShares shares = rowShares(rowBounds_, rowSeconds_, team);
+    const RowShares shares = sharesForTeam(rowBounds_, rowSeconds_, team);
 #pragma omp parallel num_threads(team) if (team > 1)
     {
         for (std::size_t k = 0; k < levels; ++k) {
@@ -1075,6 +1075,15 @@ void CpuEvaluator<T>::vertexNormalsSimd(T* out, const std::vector<std::uint32_t>
     vertexNormalsScalar(out, only);
 }
 #endif
+
+template <class T>
+void CpuEvaluator<T>::setRowShares(std::span<const double> bounds) {
+    bool valid = bounds.size() >= 2 && bounds.front() == 0 && bounds.back() == 1;
+    for (std::size_t t = 0; valid && t + 1 < bounds.size(); ++t) valid = bounds[t] <= bounds[t + 1];
+    if (!valid) throw std::invalid_argument("CpuEvaluator::setRowShares: ascending fractions from 0 to 1 wanted");
+    rowBounds_.assign(bounds.begin(), bounds.end());
+    rowSeconds_.assign(kSecondsApart * (bounds.size() - 1), 0.0);
+}
 
 template class CpuEvaluator<float>;
 template class CpuEvaluator<double>;

@@ -617,7 +617,10 @@ TEST(Evaluator, TeamBarrierLetsNoThreadPassBeforeAllArrive) {
 }
 
 // Shares that move from frame to frame (with the threads' speeds) still give every row once:
-// each frame of a changing sequence the same bits as one thread's.
+// each frame of a changing sequence the same bits as one thread's. The frames alternate between
+// the shares the threads' speeds give and shares set far to either side (setRowShares: thread 0
+// with a tenth of the rows, then with four fifths, ...), so that a share's start or end that did
+// not follow its fractions would leave rows out whichever way this machine's threads run.
 // Every way of sharing: by work over a level (the per-level table as built), every group in
 // turn (the tiled form's rows, in walk order), the factorized table's one range; and the normals
 // (every other frame), whose one pass (the tiled form's drawing order) and two passes (fewer
@@ -630,9 +633,22 @@ TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
         std::vector<float> control(model.loaded.mesh.positions.size());
         std::vector<float> expected(3 * std::size_t(one.refinedCount())), got(expected.size());
         std::vector<float> expectedNormals(expected.size()), gotNormals(expected.size());
+        const double firstShares[] = {0.1, 0.8, 0.35, 0.6};
+        int skewed = 0;
         for (int frame = 0; frame < 20; ++frame) {
             for (std::size_t i = 0; i < control.size(); ++i)
                 control[i] = float(model.loaded.mesh.positions[i] + 0.01 * std::sin(double(i) + frame));
+            const std::size_t team = three.rowShares().size() - (three.rowShares().empty() ? 0 : 1);
+            if (frame % 4 >= 2 && team >= 2) {  // thread 0 takes `first`, the others the rest evenly
+                // Each of the four, with normals and without, over the ten frames.
+                const double first = firstShares[std::size_t(frame / 4 + frame) % 4];
+                ++skewed;
+                std::vector<double> bounds(team + 1, 1.0);
+                bounds[0] = 0;
+                for (std::size_t t = 1; t < team; ++t) bounds[t] = first + (1 - first) * double(t - 1) / double(team - 1);
+                three.setRowShares(bounds);
+                ASSERT_TRUE(std::equal(bounds.begin(), bounds.end(), three.rowShares().begin()));
+            }
             if (frame % 2 == 0) {
                 one.evaluate(control, expected);
                 three.evaluate(control, got);
@@ -643,6 +659,7 @@ TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
             }
             ASSERT_EQ(expected, got) << form << ", frame " << frame;
         }
+        EXPECT_EQ(skewed, 10) << form << ": a team of one has no shares to move";
     };
     CpuEvaluator<float> one(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 1);
     CpuEvaluator<float> three(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 3);
@@ -657,6 +674,18 @@ TEST(Evaluator, SharesThatMoveBetweenFramesGiveTheSameBits) {
     CpuEvaluator<float> smallThree(small.perLevel, small.factorized, small.surface, TableForm::PerLevel, 3, 3);
     ASSERT_FALSE(smallThree.normalsInOnePass());
     frames(small, smallOne, smallThree, "per-level, two passes of normals");
+}
+
+TEST(Evaluator, SetRowSharesTakesOnlyAscendingFractionsFromZeroToOne) {
+    const Refined r = refineModel(test::dataPath("cube.obj"), 2);
+    CpuEvaluator<float> evaluator(r.perLevel, r.factorized, r.surface, TableForm::PerLevel, 3, 2);
+    EXPECT_TRUE(evaluator.rowShares().empty());
+    for (const std::vector<double>& bad : std::vector<std::vector<double>>{
+             {}, {0}, {0.1, 1}, {0, 0.9}, {0, 0.7, 0.3, 1}, {0, std::nan(""), 1}})
+        EXPECT_THROW(evaluator.setRowShares(bad), std::invalid_argument) << bad.size() << " fractions";
+    const std::vector<double> good = {0, 0, 0.5, 1};  // an empty share is a share
+    evaluator.setRowShares(good);
+    EXPECT_TRUE(std::equal(good.begin(), good.end(), evaluator.rowShares().begin(), evaluator.rowShares().end()));
 }
 
 TEST(Evaluator, EachFrameOfAChangingSequenceIsRefinedFromItsOwnControlPoints) {

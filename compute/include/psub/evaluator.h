@@ -215,6 +215,15 @@ public:
     // per face for its two passes.
     void normals(std::span<const T> refined, std::span<T> normals);
 
+    // The threads' shares of a frame's rows, faces and vertices (n + 1 ascending fractions, 0 to 1:
+    // thread t of a team of n takes from rowShareStart(count, bounds, t, n) on), moved after each
+    // frame toward the threads' speeds (balanceRowShares); empty before the first frame. A team of
+    // another size starts from even shares. setRowShares starts them from `bounds` instead
+    // (throws std::invalid_argument unless they are such fractions): for a caller that knows its
+    // threads' speeds, and for the tests, which move the shares both ways.
+    std::span<const double> rowShares() const { return rowBounds_; }
+    void setRowShares(std::span<const double> bounds);
+
     // The table bytes a frame reads less than the table holds: those the narrow copy stands in
     // for (narrowBytesSaved; 0 where it has none).
     std::uint64_t narrowBytesSaved() const { return psub::narrowBytesSaved(perLevel_, narrow_); }
