@@ -35,23 +35,21 @@ void quincunx(const uint n) {
 }
 
 // The second half (tile.comp, fineKind): the fine points of parities (px, py) in [0, side)^2
-// from p0, into the grid or, when `last`, to the finest level.
-void fineKind(const uint px, const uint py, const uint n, const uint p0, const uint side, const bool last) {
+// from p0, into the grid.
+void fineKind(const uint px, const uint py, const uint n, const uint p0, const uint side) {
     const uint nv = n - 2u, nf = n - 1u;
     [[unroll]] for (uint y = py; y < side; y += 2u)
         [[unroll]] for (uint x = px; x < side; x += 2u) {
             const uint i = (p0 + x) / 2u + 2u, j = (p0 + y) / 2u + 2u;
-            const vec4 value = finePoint(px, py, (j - 1u) * nv + i - 1u, j * nf + i, nv, nf);
-            if (last) emit(x, y, value);
-            else grid[y * side + x] = value;
+            grid[y * side + x] = finePoint(px, py, (j - 1u) * nv + i - 1u, j * nf + i, nv, nf);
         }
 }
 
-void fineStep(const uint n, const uint p0, const uint side, const bool last) {
-    fineKind(0u, 0u, n, p0, side, last);
-    fineKind(1u, 0u, n, p0, side, last);
-    fineKind(0u, 1u, n, p0, side, last);
-    fineKind(1u, 1u, n, p0, side, last);
+void fineStep(const uint n, const uint p0, const uint side) {
+    fineKind(0u, 0u, n, p0, side);
+    fineKind(1u, 0u, n, p0, side);
+    fineKind(0u, 1u, n, p0, side);
+    fineKind(1u, 1u, n, p0, side);
 }
 
 void main() {
@@ -70,13 +68,17 @@ void main() {
         // unrolled nothing (50 s to compile, slower than the workgroup kernel).
         if (kSteps >= 2u) {
             quincunx(kWindow);
-            fineStep(kWindow, 0u, kSide1, false);
+            fineStep(kWindow, 0u, kSide1);
         }
         if (kSteps >= 3u) {
             quincunx(kSide1);
-            fineStep(kSide1, 0u, kSide2, false);
+            fineStep(kSide1, 0u, kSide2);
         }
         quincunx(kLastSide);
-        fineStep(kLastSide, r0, kBlock + 1u, true);
+        // The last grid whole, then written row by row (each lane's points in output order:
+        // about 10% faster on lavapipe at t = 1 and 2 than written by parity as fineStep makes them).
+        fineStep(kLastSide, r0, kBlock + 1u);
+        [[unroll]] for (uint y = 0u; y <= kBlock; ++y)
+            [[unroll]] for (uint x = 0u; x <= kBlock; ++x) emit(x, y, grid[y * (kBlock + 1u) + x]);
     }
 }
