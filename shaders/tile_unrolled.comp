@@ -66,6 +66,18 @@ void emitPoint(const uint x, const uint y, vec4 value) {
     if (X < blockL && Y < blockL) writeValues(outputBegin + (Y - 1u) * (blockL - 1u) + X - 1u, firstValue, value);
 }
 
+// The window's point gathered at `i`, its values past kComponents (a narrower vertex's padding)
+// 0: the zeros fold through every sum when compiling, so only the vertex's own values are
+// computed (at width 3 a quarter of the arithmetic less: positions about 10% faster on
+// lavapipe), and the padding is written as 0.
+vec4 windowValue(uint i) {
+    vec4 value = readValues(gatheredAt(i), firstValue);
+    if (kComponents < 4u) value.w = 0.0;
+    if (kComponents < 3u) value.z = 0.0;
+    if (kComponents < 2u) value.y = 0.0;
+    return value;
+}
+
 void main() {
     const uint block = rowIndex();
     if (block >= pc.rowCount) return;
@@ -76,8 +88,7 @@ void main() {
     for (firstValue = 0u; firstValue < kComponents; firstValue += 4u) {
         [[unroll]] for (uint y = 0u; y < kWindow; ++y)
             [[unroll]] for (uint x = 0u; x < kWindow; ++x)
-                grid[y * kWindow + x] =
-                    readValues(gatheredAt(gatherFirst + min(y, lastY) * gridSide + min(x, lastX)), firstValue);
+                grid[y * kWindow + x] = windowValue(gatherFirst + min(y, lastY) * gridSide + min(x, lastX));
         // Spelt out per step, no loop over the steps: with one (even never run), lavapipe
         // unrolled nothing (50 s to compile, slower than the workgroup kernel).
         if (kSteps >= 2u) {
