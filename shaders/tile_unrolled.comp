@@ -53,9 +53,10 @@ void fineStep(const uint n, const uint p0, const uint side) {
 }
 
 // Writes lattice point (x, y) of the block, as emit() does. A point of the tile's ring has X or Y
-// 0 or L, multiples of 2^t (the block's origin is a multiple of 16, the tile's side L of 2^t), so
-// a point where neither x nor y is one is inner or past the side: it needs no border entry, which
-// lavapipe would fetch for every lane, even those that skip it.
+// 0 or L, multiples of 2^t (the block's origin is a multiple of 16, and L = TiledTable::lattice,
+// the tile's side in level-B cells times 2^t), so a point where neither x nor y is one is inner or
+// past the side: it needs no border entry, which lavapipe would fetch in every lane, even those
+// that skip it.
 void emitPoint(const uint x, const uint y, vec4 value) {
     const uint step = 1u << kSteps;
     if (x % step == 0u || y % step == 0u) {

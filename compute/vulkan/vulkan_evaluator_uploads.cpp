@@ -319,14 +319,7 @@ void VulkanEvaluator::Impl::buildTiles(const TiledTable& table, bool unrolled, s
         return M;
     };
     std::uint32_t widest = 1u << t;  // the shared grids are sized for the widest block used
-    for (std::size_t k = 0; k < table.tileCount(); ++k) {
-        // Both kernels rely on whole level-B cells: the unrolled one on a ring point's X or Y being
-        // a multiple of 2^t (tile_unrolled.comp, emitPoint).
-        if (t <= 3 && table.lattice(k) % (1u << t) != 0)
-            throw std::logic_error("VulkanEvaluator: tile " + std::to_string(k) + "'s side " +
-                                   std::to_string(table.lattice(k)) + " is no multiple of 2^" + std::to_string(t));
-        widest = std::max(widest, blockSide(table.lattice(k)));
-    }
+    for (std::size_t k = 0; k < table.tileCount(); ++k) widest = std::max(widest, blockSide(table.lattice(k)));
     const std::uint32_t grid = gridFor(widest, halo);
     tileBlockSide = widest;
     // The unrolled kernel compiles in the halo of t, t + 1 (docs/tiled.md).
