@@ -2,10 +2,11 @@
 // control mesh and orders each row group's rows by region (docs/design.md, "Threads and
 // regions"), so that threads taking even shares of every group each work on one region at every
 // level and read mostly the points they wrote themselves. walkFallback, orderFinestByWalk and
-// orderLevelsByWalk: the tiled form's fallback points, and the levels only its rows use,
-// numbered along a walk of the surface (docs/tiled.md, "Output order"): the finest points from
-// a walk of the finest faces, then the levels before from their rows. Only walkFallback reads
-// faces; the others read the tables alone.
+// orderLevelsByWalk: the tiled form's fallback points, and the levels before, numbered along a
+// walk of the surface (docs/tiled.md, "Output order"): the finest points from a walk of the
+// finest faces, then the levels before from their rows (level B, where tiles start, from its
+// points' control-point ancestors). Only walkFallback reads faces; the others read the tables
+// alone.
 #include "psub/stencils.h"
 #include "tiled_build.h"
 
@@ -224,6 +225,31 @@ void groupFinestInChunks(const PerLevelTable& rows, std::uint32_t fallbackBegin,
     for (std::uint32_t& p : position) p = number[p];
 }
 
+// Level `level`'s points (level >= 1, rows in the numbering the rules gave them) numbered by
+// the breadth-first rank of their control-point ancestor (each row's first source, level by
+// level), stably: nearby points of the control mesh come first together, so the first half of
+// each group of the level, and of the levels numbered from it, is one part of the surface.
+std::vector<std::uint32_t> numberByAncestor(const PerLevelTable& rows, std::size_t level) {
+    std::vector<std::uint32_t> rank = breadthFirstRanks(rows), next;
+    for (std::size_t k = 0; k < level; ++k) {
+        const StencilLevel& step = rows.levels[k];
+        next.assign(step.destinationCount, UINT32_MAX);  // a point no row writes: last
+        for (std::uint64_t g = step.groupBegin; g < step.groupEnd; ++g) {  // readsChild groups last
+            const RowGroup& group = rows.groups[g];
+            const std::vector<std::uint32_t>& from = readsChild(group) ? next : rank;
+            for (std::uint64_t r = 0; r < group.rowCount; ++r)
+                next[rows.destinations[group.rowBegin + r]] = from[rows.indices[group.indexBegin + r * group.width]];
+        }
+        rank.swap(next);
+    }
+    std::vector<std::uint32_t> order(rank.size());
+    for (std::uint32_t v = 0; v < rank.size(); ++v) order[v] = v;
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return rank[a] < rank[b]; });
+    std::vector<std::uint32_t> number(rank.size());
+    for (std::uint32_t i = 0; i < order.size(); ++i) number[order[i]] = i;
+    return number;
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> walkFallback(const TiledTable& table, const std::vector<std::uint32_t>& drawOf,
@@ -324,11 +350,16 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
     // Per point of the level being renumbered, its new number (first the finest level's). From
     // the finest level back, each level's rows by their new destination within each group (they
     // ascend again), and the level before's points by first use by them, then grouped by the
-    // group of the row that writes them (groupLevelPoints), down to level `first`: level B and
-    // those before it are gathered by the tiles (without a tile, only the control points keep
-    // their numbers).
-    const std::size_t first = table.tileCount() > 0 ? std::size_t(table.baseLevel) + 1 : 1;
-    rows.walkFrom = std::uint32_t(first - 1);
+    // group of the row that writes them (groupLevelPoints), down to level 1 (only the control
+    // points keep their numbers). With tiles, level B's points are not numbered by the
+    // fallback's rows (a walk of the fallback alone, in strips between the tiles: its halves
+    // interleave across the surface, and two threads then read each other's fresh points at
+    // every level up to B) but by their control-point ancestor (numberByAncestor), and the
+    // tiles' gathers renumbered with them.
+    const std::size_t first = 1, base = table.tileCount() > 0 ? std::size_t(table.baseLevel) : SIZE_MAX;
+    const std::vector<std::uint32_t> baseNumbers =
+        base >= 1 && base < levels ? numberByAncestor(rows, base) : std::vector<std::uint32_t>{};
+    rows.walkFrom = 0;
     // rowAt[d]: the row writing new destination d, as its group within the level (high 32 bits)
     // and its row within the level (low 32), or kNoRow.
     constexpr std::uint64_t kNoRow = ~std::uint64_t(0);
@@ -359,6 +390,7 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
         // on, the new numbers of the row 16 on (the rows lie in canonical order: misses).
         const bool sources = k >= first;
         if (sources) sourcePosition.assign(level.sourceCount, kNone);
+        if (sources && k == base) sourcePosition = baseNumbers;  // every point numbered already
         std::uint32_t used = 0;
         nextRow.clear();
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) nextRow.push_back(rows.groups[g].rowBegin);
@@ -394,6 +426,8 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
                 if (p == kNone) p = used++;
         if (!sources) break;
         groupLevelPoints(rows, k, sourcePosition);
+        if (k == base)
+            for (std::uint32_t& v : table.gather) v = sourcePosition[v];
         position.swap(sourcePosition);
     }
 }

@@ -49,9 +49,10 @@ void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector
 
 // The fallback's points in walk order (docs/tiled.md, "Output order"): its finest points in
 // order of first appearance along a breadth-first walk of the finest faces `finest` (canonical
-// numbers), then, level by level back to B + 1 (to level 1 without a tile), each level's points
-// in order of first use by the rows of the level after; each group's rows ordered by their new
-// destination. table.rows, table.canonical and drawOf renumbered to match: the same output
+// numbers), then, level by level back to level 1, each level's points in order of first use by
+// the rows of the level after (with tiles, level B's by their control-point ancestors, and the
+// tiles' gathers renumbered with them); each group's rows ordered by their new destination.
+// table.rows, table.gather, table.canonical and drawOf renumbered to match: the same output
 // through `canonical`, with points near on the surface near in memory at every level (the cow
 // at 7 steps, no tile: evaluation with normals about 1.6x faster than in canonical order).
 // In three parts:
@@ -61,7 +62,8 @@ void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector
 //   when every point is a tile's.
 // - orderFinestByWalk: from the walk, the finest points renumbered (table.canonical and
 //   drawOf); returns, per old drawing position, its new one (empty when nothing moved).
-// - orderLevelsByWalk: from that, the rows and the levels before them (table.rows alone).
+// - orderLevelsByWalk: from that, the rows and the levels before them (table.rows, and the
+//   tiles' gathers of level B).
 std::vector<std::uint32_t> walkFallback(const TiledTable& table, const std::vector<std::uint32_t>& drawOf,
                                         const Faces& finest);
 std::vector<std::uint32_t> orderFinestByWalk(TiledTable& table, std::vector<std::uint32_t>& drawOf,
