@@ -443,6 +443,8 @@ int runBench(const BenchOptions& options) {
     progress.show("memory bandwidth: write-only (streaming stores)");
     report.write1 = measureWriteOnly(1, 3 * report.triadElements, repetitions);
     report.writeAll = allThreads > 1 ? measureWriteOnly(allThreads, 3 * report.triadElements, repetitions) : report.write1;
+    progress.show("core to core round trip");
+    report.roundTripStart = measureCoreRoundTrip(100000);
 
     for (std::size_t m = 0; m < modelCount; ++m) {
         const Model& model = models[m];
@@ -541,6 +543,7 @@ int runBench(const BenchOptions& options) {
         }
         report.models.push_back(std::move(info));
     }
+    report.roundTripEnd = measureCoreRoundTrip(100000);
     progress.done();
     if (::getloadavg(load, 1) == 1) report.loadEnd = load[0];
     const CpuTimes cpuEnd = readCpuTimes();

@@ -47,9 +47,14 @@ def main():
 
     with open(json_path) as f:
         data = json.load(f)
-    for key in ("machine", "triad_gbs", "triad_gbs_1thread", "write_only_gbs", "command", "results"):
+    for key in ("machine", "triad_gbs", "triad_gbs_1thread", "write_only_gbs", "core_round_trip_ns",
+                "core_round_trip_ns_end", "command", "results"):
         if key not in data:
             fail(f"top-level field {key!r} missing")
+    # Its value depends on the machine and its load (the tests run side by side): a number only.
+    for key in ("core_round_trip_ns", "core_round_trip_ns_end"):
+        if not isinstance(data[key], (int, float)) or data[key] < 0:
+            fail(f"{key} is {data[key]!r}")
     for key in ("cpu", "cores", "date", "compiler", "opensubdiv", "tile_kernel"):
         if key not in data["machine"]:
             fail(f"machine.{key} missing")

@@ -51,6 +51,14 @@ double measureTriad(int threads, std::size_t elements, int repetitions);
 // `threads` threads; best of `repetitions`, in GB/s counting 8 B per element.
 double measureWriteOnly(int threads, std::size_t elements, int repetitions);
 
+// The time for a cache line to go from OpenMP's thread 0 to thread 1 and back (an atomic
+// counter each bumps in turn), in ns, the median of 5 runs of `rounds`; 0 with one thread. What
+// a thread pays to read a point another has just written: on a virtual machine whose two vCPUs
+// the host moves between cores that share a last-level cache and cores that do not, it jumps
+// (120-160 against 440-540 ns on the 2-vCPU EPYC VM of bench/README.md, "Session 41"), and with
+// it every frame whose threads read each other's writes.
+double measureCoreRoundTrip(int rounds);
+
 // ---------------------------------------------------------------------------------------
 // Progress on stderr: one rewritten line on a terminal, one line per step otherwise.
 
@@ -286,6 +294,7 @@ struct Report {
     Machine machine;
     double triadAll = 0, triad1 = 0;
     double writeAll = 0, write1 = 0;  // write-only bandwidth (streaming stores), GB/s
+    double roundTripStart = 0, roundTripEnd = 0;  // measureCoreRoundTrip before and after the frames, ns
     std::size_t triadElements = 0;
     std::string command;
     FrameSettings frames;

@@ -15,11 +15,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <ctime>
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 namespace psub::bench::detail {
@@ -163,6 +165,33 @@ double measureWriteOnly(int threads, std::size_t elements, int repetitions) {
     volatile double sink = pa[elements / 2];
     (void)sink;
     return 8.0 * double(2 * pairs) / (best * 1e-3) / 1e9;
+}
+
+double measureCoreRoundTrip(int rounds) {
+    if (omp_get_max_threads() < 2 || std::thread::hardware_concurrency() < 2) return 0;
+    std::vector<double> runs;
+    for (int run = 0; run < 5; ++run) {
+        std::atomic<int> turn{0};
+        std::atomic<bool> late{false};  // past 0.2 s (a busy machine, a thread not running): stop
+        double ns = 0;
+#pragma omp parallel num_threads(2)
+        {
+            const int me = omp_get_thread_num();
+            const auto start = Clock::now();
+            int i = 0;
+            for (; i < rounds && omp_get_num_threads() == 2 && !late.load(std::memory_order_relaxed); ++i) {
+                for (unsigned spins = 1; turn.load(std::memory_order_acquire) != 2 * i + me; ++spins) {
+                    if (spins % 4096 == 0 && msSince(start) > 200) late.store(true, std::memory_order_relaxed);
+                    if (late.load(std::memory_order_relaxed)) break;
+                }
+                turn.store(2 * i + me + 1, std::memory_order_release);
+            }
+            if (me == 0) ns = i > 0 ? msSince(start) * 1e6 / i : 0;
+        }
+        runs.push_back(ns);
+    }
+    std::sort(runs.begin(), runs.end());
+    return runs[runs.size() / 2];
 }
 
 Progress::Progress() : tty_(::isatty(2) != 0) {}

@@ -89,6 +89,12 @@ void printMarkdown(const Report& report, std::FILE* out) {
                  "bandwidth; with normals: frames of positions and normals together, against 24 B per vertex at "
                  "the triad\n",
                  3 * report.triadElements, report.write1, report.writeAll, m.threads);
+    if (m.threads > 1)
+        std::fprintf(out,
+                     "- Core to core round trip (a cache line from thread 0 to thread 1 and back): %.0f ns before the "
+                     "frames, %.0f ns after (what threads pay to read each other's writes; on a virtual machine it "
+                     "can change during the run)\n",
+                     report.roundTripStart, report.roundTripEnd);
     std::fprintf(out,
                  "- Frames: control points move every frame (a small wave); per-frame time is the median (and "
                  "min) of %d timed frames after %d warm-up frames (fewer, at least 10, where %d frames would "
@@ -264,6 +270,8 @@ void writeJson(const Report& report, const std::string& path) {
         {"triad_gbs_1thread", report.triad1},
         {"write_only_gbs", report.writeAll},
         {"write_only_gbs_1thread", report.write1},
+        {"core_round_trip_ns", report.roundTripStart},
+        {"core_round_trip_ns_end", report.roundTripEnd},
         {"triad", {{"elements_per_array", std::uint64_t(report.triadElements)}, {"bytes_per_element", 24},
                    {"convention", "STREAM: a[i] = b[i] + s*c[i], 3 arrays x 8 bytes per element, best of several runs"}}},
         {"frames", {{"warmup", report.frames.warmup}, {"frames", report.frames.frames},

@@ -253,8 +253,10 @@ int main(int argc, char** argv) {
         }
         const double floorMs = bytes / (triad * 1e9) * 1e3, p = median(perLevelMs), t = median(tiledMs);
         std::printf("threads %d: triad %.1f GB/s, floor %.3f ms; per-level %.3f ms (%.1fx floor); tiled %.3f ms "
-                    "(%.1fx floor), %.2fx faster than per-level\n",
+                    "(%.1fx floor), %.2fx faster than per-level",
                     threads, triad, floorMs, p, p / floorMs, t, t / floorMs, p / t);
+        if (threads > 1) std::printf("; core round trip %.0f ns", psub::bench::detail::measureCoreRoundTrip(100000));
+        std::printf("\n");
     }
     return 0;
 }
