@@ -55,7 +55,7 @@ double measureWriteOnly(int threads, std::size_t elements, int repetitions);
 // counter each bumps in turn), in ns, the median of 5 runs of `rounds`; 0 with one thread. What
 // a thread pays to read a point another has just written: on a virtual machine whose two vCPUs
 // the host moves between cores that share a last-level cache and cores that do not, it jumps
-// (120-160 against 440-540 ns on the 2-vCPU EPYC VM of bench/README.md, "Session 41"), and with
+// (about 100-180 against 440-540 ns on the 2-vCPU EPYC VM of bench/README.md, "Session 41"), and with
 // it every frame whose threads read each other's writes.
 double measureCoreRoundTrip(int rounds);
 
