@@ -286,7 +286,9 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     std::vector<float> canonical;
     // Frames with and without normals, and the rest pose against the first record's (in canonical
     // order: the tiled form's drawing order mapped back outside the timing).
-    const auto measure = [&](Record& r, CpuEvaluator<float>& evaluator, TableForm form) {
+    // `tiled`: the tiled table `evaluator` reads, when not refinement's.
+    const auto measure = [&](Record& r, CpuEvaluator<float>& evaluator, TableForm form,
+                             const TiledTable* tiled = nullptr) {
         progress.show(label + ": " + r.evaluator + " " + std::to_string(r.threads) + " thr");
         r.buildRepetitions = repetitions;
         r.bytesPerFrame -= evaluator.narrowBytesSaved();  // its narrow copy read instead (psub/evaluator.h)
@@ -301,7 +303,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
         evaluator.evaluate(control, out);
         if (form == TableForm::Tiled) {
             canonical.resize(out.size());
-            toCanonical<float>(refinement.tiled, out, canonical, 3);
+            toCanonical<float>(tiled ? *tiled : refinement.tiled, out, canonical, 3);
             out.swap(canonical);
         }
         if (reference.empty()) {
@@ -361,6 +363,28 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             measure(t, tiledEvaluator, TableForm::Tiled);
             refinement.tiled.rows = std::move(rows);
         }
+    }
+    // The tiled form without a tile (TileSides::None: psub play's candidate on several threads,
+    // where worthTimingWithoutTiles; docs/tiled.md "Tiles or none"): its lean build, as often as
+    // the tiled form's (the fastest counted), then all threads.
+    if (allThreads > 1 && worthTimingWithoutTiles(refinement.tiled)) {
+        progress.show(label + ": PSub tiled form without tiles");
+        options.tileSides = TileSides::None;
+        Refinement untiled;
+        BuildMs untiledBuild = build;
+        untiledBuild.tiledTopology = untiledBuild.tiled = 1e300;
+        const auto untiledStart = Clock::now();
+        for (int n = 0; n < kBuildRepetitions && (n == 0 || msSince(untiledStart) < kBuildSeconds * 1e3); ++n) {
+            untiled = refine(model.mesh, model.connectivity, options);
+            untiledBuild.tiledTopology = std::min(untiledBuild.tiledTopology, untiled.topologyMs);
+            untiledBuild.tiled = std::min(untiledBuild.tiled, untiled.tiledMs);
+        }
+        Record r = tiledRecord(model, levels, k, untiled, "psub-cpu", untiledBuild);
+        r.evaluator = "psub-cpu-tiled-notiles";
+        r.table = "tiled, no tiles";
+        r.threads = allThreads;
+        CpuEvaluator<float> evaluator(untiled.tiled, 3, allThreads);
+        measure(r, evaluator, TableForm::Tiled, &untiled.tiled);
     }
     tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN

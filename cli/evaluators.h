@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -83,7 +84,12 @@ inline bool autoTimesPerLevel(Backend backend, std::uint64_t refinedFaces, int l
 // - on the CPU when a frame runs on several threads, both with their rows ordered by region, one
 //   region per thread (orderLevelsByRegion, the tiled form's rows up to its level B;
 //   docs/design.md, "Threads and regions": faster where a thread reading another's fresh writes
-//   is dear, slower on one thread).
+//   is dear, slower on one thread);
+// - on the CPU when a frame runs on several threads and worthTimingWithoutTiles(r.tiled), the
+//   tiled form without a tile, from `withoutTiles` (a lean build with TileSides::None; none
+//   given: not timed): every point the fallback's, in walk order, its normals in one pass after.
+//   Faster on two threads on Spot at 9 to 11 steps (at 9: 0.51 ms against 0.76-0.78 with
+//   normals), slower at 12 (docs/tiled.md, "Tiles or none"). When it wins, it replaces r.tiled.
 // One evaluator at a time (a device's memory may hold one mesh's tables, not two): `tiled` is the
 // tiled one when it won, else empty (make the per-level one again). The rows of the winner stay
 // region-ordered if that won (the same output, bit for bit). `reason`: "auto: ...", for
@@ -96,9 +102,10 @@ struct FormChoice {
 };
 template <class Refinement>
 FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, const std::vector<float>& control,
-                      std::vector<float>& out) {
+                      std::vector<float>& out, const std::function<TiledTable()>& withoutTiles = {}) {
     FormChoice choice;
     const bool tiles = r.tiled.tileCount() > 0;
+    const double tiledShare = 100.0 * r.tiled.fallbackBegin / std::max(1u, r.tiled.refinedCount);
     const bool perLevel = !r.perLevel.levels.empty() || r.tiled.rows.levels.empty();  // built (not the lean build)
     const PerLevelTable& rows = perLevel ? r.perLevel : r.tiled.rows;
     const int threads =
@@ -131,6 +138,18 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
             }
         }
     }
+    bool untiled = false;
+    if (withoutTiles && threads > 1 && worthTimingWithoutTiles(r.tiled)) {
+        TiledTable none = withoutTiles();
+        const EvaluatorTables tables{r.perLevel, r.factorized, r.surface, none};
+        const double noneMs = quickFrameMs(*makeEvaluator(backend, tables, TableForm::Tiled, context), control, out);
+        times += ", " + millis(noneMs) + " ms tiled without tiles";
+        if (noneMs < bestMs) {
+            bestMs = noneMs, untiled = true, choice.form = TableForm::Tiled, choice.tiled.reset();
+            r.tiled = std::move(none);  // the evaluator made again below reads it there
+            choice.tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
+        }
+    }
     if (perLevel && threads > 1) {
         PerLevelTable regions = r.perLevel;
         orderLevelsByRegion(regions, std::uint32_t(threads));
@@ -140,10 +159,10 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
         if (regionMs < bestMs) choice.form = TableForm::PerLevel, choice.tiled.reset(), r.perLevel = std::move(regions);
     }
     if (!perLevel) times += "; per-level untimed from " + std::to_string(kTiledAloneFaces) + " faces";
-    choice.reason = tiles ? "auto: " + std::to_string(int(std::lround(100.0 * r.tiled.fallbackBegin /
-                                                                        std::max(1u, r.tiled.refinedCount)))) +
-                                "% of the points tiled; " + times
-                          : "auto: no regular tiles; " + times;
+    choice.reason = !tiles    ? "auto: no regular tiles; " + times
+                    : untiled ? "auto: no tiles (" + std::to_string(int(std::lround(tiledShare))) +
+                                    "% of the points were tiled); " + times
+                              : "auto: " + std::to_string(int(std::lround(tiledShare))) + "% of the points tiled; " + times;
     return choice;
 }
 

@@ -294,6 +294,15 @@ std::uint32_t refinedCount(const Refinement& r) {
     return r.perLevel.levels.empty() && r.tiled.refinedCount > 0 ? r.tiled.refinedCount : r.perLevel.refinedCount();
 }
 
+// The steps, rules and boundary of --levels, --rules and --boundary.
+RefineOptions baseOptions(const PlayOptions& o) {
+    RefineOptions options;
+    options.levels = o.levels;
+    options.rules = o.rules;
+    options.boundary = o.boundary;
+    return options;
+}
+
 void refineAnimated(Playback& p) {
     const PlayOptions& o = p.o;
     const Mesh& mesh = p.animated.mesh;
@@ -304,10 +313,7 @@ void refineAnimated(Playback& p) {
     if (finest.faces > kMaxFaces)
         throw InputError(o.input + ": --levels " + std::to_string(o.levels) + " would give " +
                          std::to_string(finest.faces) + " refined faces; psub play stops at " + std::to_string(kMaxFaces));
-    RefineOptions options;
-    options.levels = o.levels;
-    options.rules = o.rules;
-    options.boundary = o.boundary;
+    RefineOptions options = baseOptions(o);
     options.factorized = o.form == kFormFactorized;
     options.tiled = o.form == kFormTiled || o.form == kFormAuto;
     // The forced tiled form builds only its own table (lean), and so does auto where it would
@@ -335,7 +341,14 @@ void chooseForm(Playback& p, VulkanContext* context) {
         return;
     }
     p.animated.pose(0, p.control);
-    FormChoice choice = fasterForm(p.o.backend, p.refinement, context, p.control, p.refined);
+    const auto withoutTiles = [&p] {  // the lean build of the tiled form without a tile
+        RefineOptions options = baseOptions(p.o);
+        options.tiled = true;
+        options.perLevel = false;
+        options.tileSides = TileSides::None;
+        return refine(p.animated.mesh, p.animated.checked.connectivity, options).tiled;
+    };
+    FormChoice choice = fasterForm(p.o.backend, p.refinement, context, p.control, p.refined, withoutTiles);
     p.form = choice.form;
     if (choice.tiled) p.evaluator = std::move(choice.tiled), dropPerLevelTables(p.refinement);
     p.formReason = std::move(choice.reason);
@@ -537,8 +550,9 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addChoice(pl, "--form", o.form, kPlayForms,
               "table form: auto (the fastest of a quick timing at load, positions and normals, on the chosen "
               "backend: the per-level rows, the tiled form, and on several CPU threads both with their rows "
-              "ordered by region; on the CPU from 262144 refined faces the tiled form alone, built and timed "
-              "without the per-level table), per-level, factorized or tiled",
+              "ordered by region and, where tiles write under 90% of the points, the tiled form without tiles; "
+              "on the CPU from 262144 refined faces the tiled form alone, built and timed without the "
+              "per-level table), per-level, factorized or tiled",
               "auto");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");

@@ -485,10 +485,14 @@ TiledPlan planTiled(std::size_t levelCount, bool preprocessed, const Level& firs
     return {std::uint32_t(levelCount) - 2 * t, t};
 }
 
+bool worthTimingWithoutTiles(const TiledTable& tiled) {
+    return tiled.tileCount() > 0 && tiled.fallbackBegin < 0.9 * tiled.refinedCount;
+}
+
 TileBlocks chooseTileBlocks(const Level& base, const TiledPlan& plan) {
     if (plan.doubleSteps > 3) throw std::invalid_argument("chooseTileBlocks: at most 3 double steps");
     const std::uint32_t halo = kHalo[plan.doubleSteps];
-    if (plan.doubleSteps == 0) {
+    if (plan.doubleSteps == 0 || plan.sides == TileSides::None) {
         TileBlocks blocks;
         blocks.halo = halo;
         blocks.covered.assign(base.faces.faceCount(), 0);

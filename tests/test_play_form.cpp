@@ -91,6 +91,25 @@ TEST(PlayForm, AutoTimesBothFormsOnATiledMesh) {
     fs::remove(torus);
 }
 
+// On two CPU threads, where the tiles write under 90% of the points (Spot), auto also times the
+// tiled form without tiles (a second lean build); it won on every run measured (Spot at 5 to
+// 11 steps, docs/tiled.md "Tiles or none"), and whichever wins plays the oracle's frames. One
+// thread does not time it.
+TEST(PlayForm, AutoTimesTheTiledFormWithoutTilesOnTwoThreads) {
+    const std::string spot = "play '" + psub::test::dataPath("spot_control_mesh.obj") + "' --levels 6 --frames 2 --anim twist --verify";
+    ::setenv("OMP_NUM_THREADS", "2", 1);
+    const Outcome two = psub(spot);
+    ::setenv("OMP_NUM_THREADS", "1", 1);
+    const Outcome one = psub(spot);
+    ::unsetenv("OMP_NUM_THREADS");
+    EXPECT_EQ(two.status, 0) << two.err;
+    EXPECT_TRUE(contains(two.out, " ms tiled without tiles, ")) << two.out;
+    EXPECT_TRUE(contains(two.out, "Verified: all 2 frames")) << two.out;
+    EXPECT_EQ(one.status, 0) << one.err;
+    EXPECT_FALSE(contains(one.out, "without tiles")) << one.out;
+    EXPECT_TRUE(contains(one.out, "Verified: all 2 frames")) << one.out;
+}
+
 // On Vulkan too: the tiled form (a tile kernel) plays the oracle's frames, and auto times both
 // forms on the device. No device fails the test (a skip only with PSUB_ALLOW_NO_VULKAN=1).
 TEST(PlayForm, VulkanPlaysEachForcedFormAndAutoTimesBoth) {

@@ -736,7 +736,8 @@ void expectSameTable(const TiledTable& a, const TiledTable& b) {
 // The lean build (RefineOptions::perLevel = false: the tiled form's rows made only where its
 // fallback can need them, docs/tiled.md) makes the very table the full build copies from the
 // per-level rows: every model (unused and non-manifold vertices, triangles, boundaries), both
-// boundary modes, the paper and shape rules, every tile count, both side choices, 0 to 5 steps.
+// boundary modes, the paper and shape rules, every tile count, all three side choices (no tiles:
+// the paper rules), 0 to 5 steps.
 TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
     std::vector<std::string> models = test::allValidModels();
     models.push_back("");  // a 30 x 20 torus
@@ -745,15 +746,18 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
     for (const std::string& path : models)
         for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
             for (Rules rules : {Rules::Paper, Rules::Shape})
-                for (TileSides sides : {TileSides::Every, TileSides::Cheapest})
+                for (TileSides sides : {TileSides::Every, TileSides::Cheapest, TileSides::None})
                     for (int levels = 0; levels <= (path.find("cow") != std::string::npos ? 3 : path.empty() ? 6 : 5); ++levels) {
                         if (sides == TileSides::Cheapest && !path.empty() && rules == Rules::Shape) continue;
+                        if (sides == TileSides::None && rules == Rules::Shape) continue;
                         // Under AddressSanitizer (memory errors, not tables) the paper rules with
                         // every side: a third of the builds (the CI's time).
-                        if (test::kSanitized && (rules == Rules::Shape || sides == TileSides::Cheapest)) continue;
+                        if (test::kSanitized && (rules == Rules::Shape || sides != TileSides::Every)) continue;
                         SCOPED_TRACE((path.empty() ? "torus" : path) + " levels " + std::to_string(levels) + " " +
                                      boundaryName(boundary) + " " + rulesName(rules) +
-                                     (sides == TileSides::Every ? " every side" : " cheapest sides"));
+                                     (sides == TileSides::Every      ? " every side"
+                                      : sides == TileSides::Cheapest ? " cheapest sides"
+                                                                     : " no tiles"));
                         const test::Loaded loaded = path.empty() ? loadTorus(30, 20) : test::load(path);
                         RefineOptions options = test::tiledOptions(levels, boundary, rules, sides);
                         const Refinement full = refine(loaded.mesh, loaded.checked.connectivity, options);
@@ -768,6 +772,41 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
     for (int boundary = 0; boundary < 2; ++boundary)
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
     EXPECT_GT(fallbackPoints, 0u);  // tiles beside fallback rows, not only all-tile tables
+}
+
+// Without tiles (TileSides::None, psub play's third tiled candidate on several threads): the plan's
+// double steps and base level kept, no tile, every finest point the fallback's, the same numbers
+// as the rules on a torus (which the tiles would cover whole) and on Spot, both boundary modes,
+// and the lean build makes the full build's table. Only a table whose tiles write under 90% of
+// the points is worth timing without them (Spot, not the torus, nor a table without tiles).
+TEST(Tiled, WithoutTilesEveryPointIsTheFallbacksWithTheRulesNumbers) {
+    for (const std::string& path : {std::string(), test::dataPath("spot_control_mesh.obj")})
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
+            const test::Loaded loaded = path.empty() ? loadTorus(48, 32) : test::load(path);
+            SCOPED_TRACE((path.empty() ? "torus" : path) + " " + boundaryName(boundary));
+            const int steps = path.empty() ? 4 : 7;
+            const Hierarchy h = test::refine(loaded, steps, Preprocess::Auto, boundary);
+            const PerLevelTable perLevel = buildPerLevelTable(h);
+            const TiledTable tiles = buildTiledTable(h, perLevel), none = buildTiledTable(h, perLevel, TileSides::None);
+            ASSERT_GT(tiles.tileCount(), 0u);
+            EXPECT_EQ(none.tileCount(), 0u);
+            EXPECT_EQ(none.fallbackBegin, 0u);
+            EXPECT_EQ(none.refinedCount, tiles.refinedCount);
+            EXPECT_EQ(none.doubleSteps, tiles.doubleSteps);
+            EXPECT_EQ(none.baseLevel, tiles.baseLevel);
+            EXPECT_EQ(worthTimingWithoutTiles(tiles), !path.empty());
+            EXPECT_FALSE(worthTimingWithoutTiles(none));
+            const std::vector<double> oracle = refinePositions(h, loaded.mesh.positions);
+            const double scale = diagonal(loaded.mesh.positions);
+            EXPECT_LE(maxDifference(tiledCanonical<float>(none, loaded.mesh.positions), oracle), 1e-6 * scale);
+            EXPECT_LE(maxDifference(tiledCanonical<double>(none, loaded.mesh.positions, 3, 2), oracle), 1e-12 * scale);
+            RefineOptions options = test::tiledOptions(path.empty() ? 4 : 6, boundary, Rules::Paper, TileSides::None);
+            const Refinement full = refine(loaded.mesh, loaded.checked.connectivity, options);
+            options.perLevel = false;
+            const Refinement lean = refine(loaded.mesh, loaded.checked.connectivity, options);
+            EXPECT_EQ(lean.tiled.tileCount(), 0u);
+            expectSameTable(lean.tiled, full.tiled);
+        }
 }
 
 // Where the fallback is most of the finest points, the lean build renumbers the levels in walk

@@ -143,6 +143,20 @@ TEST_F(VulkanTiled, EqualsTheCpuTiledEvaluatorOnEveryModel) {
         for (int rules = 0; rules < 2; ++rules) EXPECT_GT(tiles[boundary][rules], 0u) << boundary << rules;
 }
 
+// The tiled form without tiles (TileSides::None: psub play's third candidate on several CPU
+// threads): every point the fallback's rows, on the device as on the CPU, on a torus the tiles
+// would cover whole and on Spot, both boundary modes, positions and normals.
+TEST_F(VulkanTiled, WithoutTilesEqualsTheCpu) {
+    for (const std::string& path : {std::string(), test::dataPath("spot_control_mesh.obj")})
+        for (Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
+            SCOPED_TRACE((path.empty() ? "torus" : path) + " " + boundaryName(boundary));
+            const Tiled t = tiledFor(path.empty() ? test::loadTorus(24, 16) : test::load(path), path.empty() ? 4 : 6,
+                                     boundary, Rules::Paper, TileSides::None);
+            ASSERT_EQ(t.r.tiled.tileCount(), 0u);
+            compareWithCpu(context(), t, 3, 1e-6);
+        }
+}
+
 // Every finest point of a torus is a tile's, at t = 1, 2 and 3 double steps (odd steps: the
 // base level one higher, reached by per-level rows), one to seven values per vertex (four per
 // pass of the kernel). The tile kernel does the CPU's operations in the CPU's order: the same

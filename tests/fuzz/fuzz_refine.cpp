@@ -4,8 +4,9 @@
 // one, a tile on every regular block, also with its normals in the tile pass); the counts must
 // match the closed form and the table forms must agree (the tiled one once put back in
 // canonical order); the tiled form's lean build (no per-level table) must make the same table;
-// the per-level table ordered by region (2 or 3 regions) must give the same bits;
-// within the numeric-range policy the values are finite.
+// the per-level table ordered by region (2 or 3 regions) must give the same bits; the tiled
+// form without a tile (TileSides::None, lean) has none and agrees too; within the numeric-range
+// policy the values are finite.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 
@@ -41,6 +42,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 lean.surface.faceVerts != r.tiled.surface.faceVerts || lean.fallbackBegin != r.tiled.fallbackBegin)
                 std::abort();
         }
+        psub::RefineOptions noTilesOptions = options;
+        noTilesOptions.factorized = false;
+        noTilesOptions.perLevel = false;
+        noTilesOptions.tileSides = psub::TileSides::None;
+        const psub::TiledTable noTiles = psub::refine(mesh, checked.connectivity, noTilesOptions).tiled;
+        if (noTiles.tileCount() != 0 || noTiles.fallbackBegin != 0 || noTiles.refinedCount != r.tiled.refinedCount)
+            std::abort();
         psub::CpuEvaluator<double> perLevel(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
         psub::CpuEvaluator<double> factorized(r.perLevel, r.factorized, r.surface, psub::TableForm::Factorized, 3, 1);
         psub::CpuEvaluator<double> tiled(r.tiled, 3, 1);
@@ -65,12 +73,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 if (std::bit_cast<std::uint64_t>(c[i]) != std::bit_cast<std::uint64_t>(a[i])) std::abort();
             psub::toCanonical<double>(r.tiled, drawing, c, 3);
         }
+        std::vector<double> untiled(a.size());
+        {
+            psub::CpuEvaluator<double> noTilesEvaluator(noTiles, 3, 1);
+            noTilesEvaluator.evaluate(mesh.positions, drawing);
+            psub::toCanonical<double>(noTiles, drawing, untiled, 3);
+        }
         perLevel.normals(a, normals);
         double scale = 1;
         for (double p : mesh.positions) scale = std::max(scale, std::abs(p));
         for (std::size_t i = 0; i < a.size(); ++i)
             if ((std::isfinite(a[i]) && std::isfinite(b[i]) && std::abs(a[i] - b[i]) > 1e-4 * scale) ||
-                (std::isfinite(a[i]) && std::isfinite(c[i]) && std::abs(a[i] - c[i]) > 1e-9 * scale))
+                (std::isfinite(a[i]) && std::isfinite(c[i]) && std::abs(a[i] - c[i]) > 1e-9 * scale) ||
+                (std::isfinite(a[i]) && std::isfinite(untiled[i]) && std::abs(a[i] - untiled[i]) > 1e-9 * scale))
                 std::abort();
         // The numeric-range policy: within the double limit, two steps stay finite in every form.
         psub::checkCoordinateRange(mesh, psub::Precision::Double);
