@@ -159,11 +159,12 @@ Record psubRecord(const Model& model, int levels, int k, const Refinement& refin
 
 #if PSUB_HAVE_VULKAN
 // The Vulkan evaluator on the same tables (lavapipe here: the same 2 cores), timed with the
-// results left on the device, then read back once and checked against the CPU's.
+// results left on the device, then read back once and checked against the CPU's. `untiled`:
+// the tiled form without tiles, when built (psub-vulkan-tiled-notiles).
 void benchVulkan(const Model& model, int levels, int k, const Refinement& refinement, const BuildMs& build,
-                 const std::vector<TableForm>& forms, const Animation& animation,
-                 const std::vector<float>& reference, const Shape& shape, const FrameSettings& frames,
-                 Progress& progress, const std::string& label, std::vector<Record>& records,
+                 const std::vector<TableForm>& forms, const Refinement* untiled, const BuildMs& untiledBuild,
+                 const Animation& animation, const std::vector<float>& reference, const Shape& shape,
+                 const FrameSettings& frames, Progress& progress, const std::string& label, std::vector<Record>& records,
                  std::vector<std::string>& warnings) {
     static std::unique_ptr<VulkanContext> context;
     static std::string unavailable;
@@ -178,12 +179,11 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
     if (!context) return;
     const std::size_t controlCount = refinement.perLevel.controlCount, refinedCount = refinement.perLevel.refinedCount();
     std::vector<float> control(3 * controlCount), out(3 * refinedCount), canonical;
-    for (TableForm form : forms) {
-        Record r = psubRecord(model, levels, k, refinement, form, "psub-vulkan", build);
+    const auto measure = [&](Record r, const Refinement& tables, TableForm form) {
         r.threads = 0;  // the driver's own threads
         progress.show(label + ": " + r.evaluator + " (" + context->deviceName() + ")");
         try {
-            const std::unique_ptr<Evaluator> evaluator = makeVulkanEvaluator(*context, tablesOf(refinement), form);
+            const std::unique_ptr<Evaluator> evaluator = makeVulkanEvaluator(*context, tablesOf(tables), form);
             r.timing = timeFrames(
                 frames, [&](int frame) { animation.write(frame, control.data(), 3); },
                 [&] { evaluator->evaluate(control, {}); });
@@ -195,12 +195,12 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
             evaluator->evaluate(control, out);
             if (form == TableForm::Tiled) {  // drawing order -> canonical, outside the timing
                 canonical.resize(out.size());
-                toCanonical<float>(refinement.tiled, out, canonical, 3);
+                toCanonical<float>(tables.tiled, out, canonical, 3);
                 out.swap(canonical);
             }
         } catch (const std::exception& e) {
             warnings.push_back(model.name + " " + r.evaluator + ": " + e.what());
-            continue;
+            return;
         }
         r.maxDiff = maxDifference(out.data(), 3, reference.data(), 3, refinedCount) / shape.diagonal;
         r.shape = shape;
@@ -208,6 +208,13 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
             warnings.push_back(model.name + " " + r.evaluator + " differs from psub-cpu-perlevel by " +
                                std::to_string(r.maxDiff) + " of the bounding-box diagonal");
         records.push_back(r);
+    };
+    for (TableForm form : forms) measure(psubRecord(model, levels, k, refinement, form, "psub-vulkan", build), refinement, form);
+    if (untiled) {
+        Record r = tiledRecord(model, levels, k, *untiled, "psub-vulkan", untiledBuild);
+        r.evaluator = "psub-vulkan-tiled-notiles";
+        r.table = "tiled, no tiles";
+        measure(r, *untiled, TableForm::Tiled);
     }
 }
 #endif
@@ -364,14 +371,15 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             refinement.tiled.rows = std::move(rows);
         }
     }
-    // The tiled form without a tile (TileSides::None: psub play's candidate on several threads,
-    // where worthTimingWithoutTiles; docs/tiled.md "Tiles or none"): its lean build, as often as
-    // the tiled form's (the fastest counted), then all threads.
-    if (allThreads > 1 && worthTimingWithoutTiles(refinement.tiled)) {
+    // The tiled form without a tile (TileSides::None: psub play's candidate on Vulkan and on
+    // several CPU threads, where worthTimingWithoutTiles; docs/tiled.md "Tiles or none"): its
+    // lean build, as often as the tiled form's (the fastest counted), then all threads and Vulkan.
+    Refinement untiled;
+    BuildMs untiledBuild = build;
+    const bool timesUntiled = worthTimingWithoutTiles(refinement.tiled);
+    if (timesUntiled) {
         progress.show(label + ": PSub tiled form without tiles");
         options.tileSides = TileSides::None;
-        Refinement untiled;
-        BuildMs untiledBuild = build;
         untiledBuild.tiledTopology = untiledBuild.tiled = 1e300;
         const auto untiledStart = Clock::now();
         for (int n = 0; n < kBuildRepetitions && (n == 0 || msSince(untiledStart) < kBuildSeconds * 1e3); ++n) {
@@ -379,6 +387,8 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
             untiledBuild.tiledTopology = std::min(untiledBuild.tiledTopology, untiled.topologyMs);
             untiledBuild.tiled = std::min(untiledBuild.tiled, untiled.tiledMs);
         }
+    }
+    if (timesUntiled && allThreads > 1) {
         Record r = tiledRecord(model, levels, k, untiled, "psub-cpu", untiledBuild);
         r.evaluator = "psub-cpu-tiled-notiles";
         r.table = "tiled, no tiles";
@@ -388,8 +398,8 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     }
     tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
 #if PSUB_HAVE_VULKAN
-    benchVulkan(model, levels, k, refinement, build, forms, animation, reference, shape, frames, progress, label, records,
-                warnings);
+    benchVulkan(model, levels, k, refinement, build, forms, timesUntiled ? &untiled : nullptr, untiledBuild, animation,
+                reference, shape, frames, progress, label, records, warnings);
 #endif
     return shape;
 }

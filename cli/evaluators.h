@@ -85,11 +85,14 @@ inline bool autoTimesPerLevel(Backend backend, std::uint64_t refinedFaces, int l
 //   region per thread (orderLevelsByRegion, the tiled form's rows up to its level B;
 //   docs/design.md, "Threads and regions": faster where a thread reading another's fresh writes
 //   is dear, slower on one thread);
-// - on the CPU when a frame runs on several threads and worthTimingWithoutTiles(r.tiled), the
-//   tiled form without a tile, from `withoutTiles` (a lean build with TileSides::None; none
-//   given: not timed): every point the fallback's, in walk order, its normals in one pass after.
-//   Faster on two threads on Spot at 9 to 11 steps (at 9: 0.51 ms against 0.76-0.78 with
-//   normals), slower at 12 (docs/tiled.md, "Tiles or none"). When it wins, it replaces r.tiled.
+// - on Vulkan, and on the CPU when a frame runs on several threads, where
+//   worthTimingWithoutTiles(r.tiled): the tiled form without a tile, from `withoutTiles` (a lean
+//   build with TileSides::None; none given: not timed), every point the fallback's, in walk
+//   order, its normals in a pass after. Faster on two CPU threads on Spot at 5 to 11 steps (at 9:
+//   0.51 ms against 0.76-0.78 with normals), slower at 12, and on lavapipe at 9 (5.3-5.5 ms
+//   against 6.0-6.3) (docs/tiled.md, "Tiles or none"). When it wins, it replaces r.tiled; on
+//   Vulkan the tiled evaluator timed before is let go first, and made again if it wins (one
+//   mesh's tables on the device at a time).
 // One evaluator at a time (a device's memory may hold one mesh's tables, not two): `tiled` is the
 // tiled one when it won, else empty (make the per-level one again). The rows of the winner stay
 // region-ordered if that won (the same output, bit for bit). `reason`: "auto: ...", for
@@ -139,16 +142,23 @@ FormChoice fasterForm(Backend backend, Refinement& r, VulkanContext* context, co
         }
     }
     bool untiled = false;
-    if (withoutTiles && threads > 1 && worthTimingWithoutTiles(r.tiled)) {
+    if (withoutTiles && (backend == Backend::Vulkan || threads > 1) && worthTimingWithoutTiles(r.tiled)) {
         TiledTable none = withoutTiles();
+        const bool heldTiled = choice.tiled != nullptr;
+        if (backend == Backend::Vulkan) choice.tiled.reset();
         const EvaluatorTables tables{r.perLevel, r.factorized, r.surface, none};
-        const double noneMs = quickFrameMs(*makeEvaluator(backend, tables, TableForm::Tiled, context), control, out);
+        double noneMs = INFINITY;
+        {
+            std::unique_ptr<Evaluator> candidate = makeEvaluator(backend, tables, TableForm::Tiled, context);
+            noneMs = quickFrameMs(*candidate, control, out);
+        }
         times += ", " + millis(noneMs) + " ms tiled without tiles";
         if (noneMs < bestMs) {
             bestMs = noneMs, untiled = true, choice.form = TableForm::Tiled, choice.tiled.reset();
-            r.tiled = std::move(none);  // the evaluator made again below reads it there
-            choice.tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
+            r.tiled = std::move(none);  // the evaluator made below reads it there
         }
+        if (untiled || (heldTiled && !choice.tiled))
+            choice.tiled = makeEvaluator(backend, tablesOf(r), TableForm::Tiled, context);
     }
     if (perLevel && threads > 1) {
         PerLevelTable regions = r.perLevel;

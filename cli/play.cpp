@@ -550,9 +550,9 @@ CLI::App* addPlayCommand(CLI::App& app, PlayOptions& o) {
     addChoice(pl, "--form", o.form, kPlayForms,
               "table form: auto (the fastest of a quick timing at load, positions and normals, on the chosen "
               "backend: the per-level rows, the tiled form, and on several CPU threads both with their rows "
-              "ordered by region and, where tiles write under 90% of the points, the tiled form without tiles; "
-              "on the CPU from 262144 refined faces the tiled form alone, built and timed without the "
-              "per-level table), per-level, factorized or tiled",
+              "ordered by region; on Vulkan and several CPU threads, where tiles write under 90% of the points, "
+              "the tiled form without tiles; on the CPU from 262144 refined faces the tiled form alone, built "
+              "and timed without the per-level table), per-level, factorized or tiled",
               "auto");
     addChoice(pl, "--rules", o.rules, kRulesNames, "P-S rules: paper, robust or shape (both beyond the paper)", "paper");
     addChoice(pl, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (beyond the paper)", "paper");

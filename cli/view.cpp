@@ -969,9 +969,9 @@ CLI::App* addViewCommand(CLI::App& app, ViewOptions& o) {
     static const std::map<std::string, int> forms = {{"auto", kFormAuto}, {"per-level", kFormPerLevel}, {"tiled", kFormTiled}};
     addChoice(vi, "--form", o.form, forms,
               "P-S table form: auto (as psub play: the fastest of a quick timing at each level built: the "
-              "per-level rows, the tiled form, on several CPU threads the rows ordered by region and, where "
-              "tiles write under 90% of the points, the tiled form without tiles; on the CPU from 262144 "
-              "refined faces the tiled form alone), per-level or tiled",
+              "per-level rows, the tiled form, on several CPU threads the rows ordered by region; on Vulkan "
+              "and several CPU threads, where tiles write under 90% of the points, the tiled form without "
+              "tiles; on the CPU from 262144 refined faces the tiled form alone), per-level or tiled",
               "auto");
     addChoice(vi, "--boundary", o.boundary, kBoundaryNames, "paper, or smooth (b toggles)", "paper");
     addChoice(vi, "--wireframe", o.wireframe, wireframes, "none, refined or control (w cycles)", "none");

@@ -94,7 +94,7 @@ TEST(PlayForm, AutoTimesBothFormsOnATiledMesh) {
 // On two CPU threads, where the tiles write under 90% of the points (Spot), auto also times the
 // tiled form without tiles (a second lean build); it won on every run measured (Spot at 5 to
 // 11 steps, docs/tiled.md "Tiles or none"), and whichever wins plays the oracle's frames. One
-// thread does not time it.
+// CPU thread does not time it.
 TEST(PlayForm, AutoTimesTheTiledFormWithoutTilesOnTwoThreads) {
     const std::string spot = "play '" + psub::test::dataPath("spot_control_mesh.obj") + "' --levels 6 --frames 2 --anim twist --verify";
     ::setenv("OMP_NUM_THREADS", "2", 1);
@@ -108,6 +108,21 @@ TEST(PlayForm, AutoTimesTheTiledFormWithoutTilesOnTwoThreads) {
     EXPECT_EQ(one.status, 0) << one.err;
     EXPECT_FALSE(contains(one.out, "without tiles")) << one.out;
     EXPECT_TRUE(contains(one.out, "Verified: all 2 frames")) << one.out;
+}
+
+// On Vulkan auto times the tiled form without tiles too (where the tiles write under 90% of the
+// points), whatever the CPU's threads; whichever wins plays the oracle's frames. No device fails
+// the test (a skip only with PSUB_ALLOW_NO_VULKAN=1).
+TEST(PlayForm, VulkanAutoTimesTheTiledFormWithoutTiles) {
+    ::setenv("OMP_NUM_THREADS", "1", 1);
+    const Outcome run = psub("play '" + psub::test::dataPath("spot_control_mesh.obj") +
+                             "' --levels 6 --frames 2 --anim twist --verify --backend vulkan");
+    ::unsetenv("OMP_NUM_THREADS");
+    if (run.status != 0 && contains(run.err, "Vulkan") && psub::test::noVulkanAllowed())
+        GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << run.err;
+    EXPECT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(contains(run.out, " ms tiled without tiles")) << run.out;
+    EXPECT_TRUE(contains(run.out, "Verified: all 2 frames")) << run.out;
 }
 
 // On Vulkan too: the tiled form (a tile kernel) plays the oracle's frames, and auto times both
