@@ -356,7 +356,7 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
     // interleave across the surface, and two threads then read each other's fresh points at
     // every level up to B) but by their control-point ancestor (numberByAncestor), and the
     // tiles' gathers renumbered with them.
-    const std::size_t first = 1, base = table.tileCount() > 0 ? std::size_t(table.baseLevel) : SIZE_MAX;
+    const std::size_t base = table.tileCount() > 0 ? std::size_t(table.baseLevel) : SIZE_MAX;
     const std::vector<std::uint32_t> baseNumbers =
         base >= 1 && base < levels ? numberByAncestor(rows, base) : std::vector<std::uint32_t>{};
     rows.walkFrom = 0;
@@ -365,7 +365,7 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
     constexpr std::uint64_t kNoRow = ~std::uint64_t(0);
     std::vector<std::uint64_t> rowAt, nextRow;
     std::vector<std::uint32_t> sourcePosition, indices;
-    for (std::size_t k = levels; k-- > first - 1;) {
+    for (std::size_t k = levels; k-- > 0;) {
         const StencilLevel& level = rows.levels[k];
         if (level.groupBegin == level.groupEnd) break;  // no row: nothing before it is used
         rowAt.assign(level.destinationCount, kNoRow);
@@ -388,7 +388,7 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
         // renumbered too) its points numbered in order of first use by them, then those no row
         // of this level reads. Read ahead (prefetches): the sources of the row 32 destinations
         // on, the new numbers of the row 16 on (the rows lie in canonical order: misses).
-        const bool sources = k >= first;
+        const bool sources = k >= 1;  // level 0's points (the control points) keep their numbers
         if (sources) sourcePosition.assign(level.sourceCount, kNone);
         if (sources && k == base) sourcePosition = baseNumbers;  // every point numbered already
         std::uint32_t used = 0;
