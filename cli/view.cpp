@@ -488,8 +488,9 @@ void Viewer::adopt(Built b) {
     if (o.form == kFormAuto) {
         std::vector<float> control(3 * std::size_t(animated.mesh.faces.vertexCount)), scratch(3 * std::size_t(r.tiled.refinedCount));
         animated.pose(0, control);
-        // The third tiled candidate's lean build (on several CPU threads where tiles are few),
-        // here on the window's thread: Spot at 9 steps about 40 ms more at a level change.
+        // The third tiled candidate's lean build (on Vulkan and on several CPU threads, where
+        // tiles are few: fasterForm), here on the window's thread: Spot at 9 steps 30-50 ms
+        // more at a level change.
         const auto withoutTiles = [&] {
             RefineOptions options;
             options.levels = built->levels, options.rules = built->rules, options.boundary = built->boundary;

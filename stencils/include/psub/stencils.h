@@ -56,15 +56,15 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
 // every regular block, sides halving from the largest down to single faces whatever a tile
 // costs (for tests and fuzzing: many small tiles, many tile borders beside the fallback); None,
 // no tile at all (the plan's levels kept, every finest point the fallback's, in walk order):
-// on two threads faster than the tiles on some meshes (Spot at 9 steps), so psub play times it
-// too (docs/tiled.md, "Tiles or none").
+// on two threads and on lavapipe faster than the tiles on some meshes (Spot at 9 steps), so
+// psub play and psub view time it too (docs/tiled.md, "Tiles or none").
 enum class TileSides { Cheapest, Every, None };
 
 // Whether the tiled form without a tile (TileSides::None) is worth building and timing beside
-// `tiled` on several threads: `tiled` has tiles and they write under 90% of its finest points.
-// Spot (58-82% tiled at 9 to 12 steps) is faster without them at 9 to 11 steps on two threads;
-// the torus (99-100% tiled) is 1.5-2x slower without, and the second build doubled psub play's
-// start and peak memory there (docs/tiled.md, "Tiles or none").
+// `tiled` (on Vulkan, or on several CPU threads): `tiled` has tiles and they write under 90% of
+// its finest points. Spot (6-82% tiled at 5 to 12 steps) is faster without them at 5 to 11 steps
+// on two threads; the torus (99-100% tiled) is 1.5-2x slower without, and the second build
+// doubled psub play's start and peak memory there (docs/tiled.md, "Tiles or none").
 bool worthTimingWithoutTiles(const TiledTable& tiled);
 
 // Where the tiled form starts its tiles: levels [0, baseLevel) of the per-level table are
