@@ -26,11 +26,12 @@ constexpr std::uint32_t kNone = ~0u;
 // groups), not of the level before.
 bool readsChild(const RowGroup& group) { return group.kind == RowKind::VertexFromFacePoints; }
 
-// Breadth-first ranks of the control points, over the pairs each level-0 row joins (its first
-// source with each other one); each connected component's points follow one another.
-std::vector<std::uint32_t> breadthFirstRanks(const PerLevelTable& table) {
-    const std::uint32_t count = table.controlCount;
-    const StencilLevel& level = table.levels.front();
+// Breadth-first ranks of level `at`'s points (0: the control points), over the pairs each row
+// of the step from it joins (its first source with each other one); each connected component's
+// points follow one another.
+std::vector<std::uint32_t> breadthFirstRanks(const PerLevelTable& table, std::size_t at = 0) {
+    const std::uint32_t count = at == 0 ? table.controlCount : table.levels[at - 1].destinationCount;
+    const StencilLevel& level = table.levels[at];
     const auto forEachPair = [&](auto&& visit) {
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
@@ -226,12 +227,17 @@ void groupFinestInChunks(const PerLevelTable& rows, std::uint32_t fallbackBegin,
 }
 
 // Level `level`'s points (level >= 1, rows in the numbering the rules gave them) numbered by
-// the breadth-first rank of their control-point ancestor (each row's first source, level by
-// level), stably: nearby points of the control mesh come first together, so the first half of
-// each group of the level, and of the levels numbered from it, is one part of the surface.
+// the breadth-first rank of their ancestor two levels before (each row's first source, level by
+// level; the control point from levels 1 and 2), stably: nearby points come first together, so
+// the first half of each group of the level, and of the levels numbered from it, is one part of
+// the surface. Ranked on the control points instead, the halves' border ran through whole
+// control faces, whose points the two halves then shared: on Spot at 9 steps levels 6 to 8 read
+// 3-4.7% of their sources from the other half against 1.2-2.2%, and on two threads took as long
+// as on one (docs/tiled.md, "Output order").
 std::vector<std::uint32_t> numberByAncestor(const PerLevelTable& rows, std::size_t level) {
-    std::vector<std::uint32_t> rank = breadthFirstRanks(rows), next;
-    for (std::size_t k = 0; k < level; ++k) {
+    const std::size_t at = level >= 2 ? level - 2 : 0;
+    std::vector<std::uint32_t> rank = breadthFirstRanks(rows, at), next;
+    for (std::size_t k = at; k < level; ++k) {
         const StencilLevel& step = rows.levels[k];
         next.assign(step.destinationCount, UINT32_MAX);  // a point no row writes: last
         for (std::uint64_t g = step.groupBegin; g < step.groupEnd; ++g) {  // readsChild groups last
