@@ -5,8 +5,8 @@
 // orderLevelsByWalk: the tiled form's fallback points, and the levels before, numbered along a
 // walk of the surface (docs/tiled.md, "Output order"): the finest points from a walk of the
 // finest faces, then the levels before from their rows (level B, where tiles start, from its
-// points' control-point ancestors). Only walkFallback reads faces; the others read the tables
-// alone.
+// points' ancestors two levels before). Only walkFallback reads faces; the others read the
+// tables alone.
 #include "psub/stencils.h"
 #include "tiled_build.h"
 
@@ -360,7 +360,7 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position) {
     // points keep their numbers). With tiles, level B's points are not numbered by the
     // fallback's rows (a walk of the fallback alone, in strips between the tiles: its halves
     // interleave across the surface, and two threads then read each other's fresh points at
-    // every level up to B) but by their control-point ancestor (numberByAncestor), and the
+    // every level up to B) but by their ancestor two levels before (numberByAncestor), and the
     // tiles' gathers renumbered with them.
     const std::size_t base = table.tileCount() > 0 ? std::size_t(table.baseLevel) : SIZE_MAX;
     const std::vector<std::uint32_t> baseNumbers =

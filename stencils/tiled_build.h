@@ -50,7 +50,7 @@ void keepFallbackRows(TiledTable& table, PerLevelTable&& rows, const std::vector
 // The fallback's points in walk order (docs/tiled.md, "Output order"): its finest points in
 // order of first appearance along a breadth-first walk of the finest faces `finest` (canonical
 // numbers), then, level by level back to level 1, each level's points in order of first use by
-// the rows of the level after (with tiles, level B's by their control-point ancestors, and the
+// the rows of the level after (with tiles, level B's by their ancestors two levels before, and the
 // tiles' gathers renumbered with them); each group's rows ordered by their new destination.
 // table.rows, table.gather, table.canonical and drawOf renumbered to match: the same output
 // through `canonical`, with points near on the surface near in memory at every level (the cow
