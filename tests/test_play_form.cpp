@@ -116,7 +116,7 @@ TEST(PlayForm, AutoTimesTheTiledFormWithoutTilesOnTwoThreads) {
 TEST(PlayForm, VulkanAutoTimesTheTiledFormWithoutTiles) {
     ::setenv("OMP_NUM_THREADS", "1", 1);
     const Outcome run = psub("play '" + psub::test::dataPath("spot_control_mesh.obj") +
-                             "' --levels 6 --frames 2 --anim twist --verify --backend vulkan");
+                             "' --levels 5 --frames 2 --anim twist --verify --backend vulkan");
     ::unsetenv("OMP_NUM_THREADS");
     if (run.status != 0 && contains(run.err, "Vulkan") && psub::test::noVulkanAllowed())
         GTEST_SKIP() << "no Vulkan device (allowed by PSUB_ALLOW_NO_VULKAN=1): " << run.err;
