@@ -30,6 +30,14 @@ double msSince(Clock::time_point start) {
     return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+TiledTable tiledWithoutTiles(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules,
+                             Boundary boundary) {
+    RefineOptions options;
+    options.levels = levels, options.rules = rules, options.boundary = boundary;
+    options.tiled = true, options.perLevel = false, options.tileSides = TileSides::None;
+    return refine(mesh, connectivity, options).tiled;
+}
+
 // ".glb" of "Out.GLB".
 std::string lowerExtension(const std::string& path) {
     std::string extension = std::filesystem::path(path).extension().string();

@@ -62,7 +62,7 @@ Mesh loadChecked(const std::string& path, CheckedMesh& checked);
 // <prefix>/share/psub next to the installed program.
 std::string dataDir();
 
-// ---- Shared by the commands' own files (commands.cpp, demo.cpp)
+// ---- Shared by the commands' own files (commands.cpp, demo.cpp, play.cpp, view.cpp)
 
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point start);
@@ -84,5 +84,10 @@ std::string header(const std::string& input, const std::string& what);
 // Prints P-S levels then Catmull-Clark levels with the face counts P-S reaches (up to `maxFaces`).
 void printStats(const Loaded& loaded, const Hierarchy& hierarchy, const std::vector<double>& levelMs,
                 std::uint64_t maxFaces);
+
+// The tiled form's lean build with no tile (TileSides::None): the third tiled candidate that
+// fasterForm (evaluators.h) times for psub play and psub view.
+TiledTable tiledWithoutTiles(const Mesh& mesh, const Connectivity& connectivity, int levels, Rules rules,
+                             Boundary boundary);
 
 }  // namespace psub::cli

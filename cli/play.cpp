@@ -294,15 +294,6 @@ std::uint32_t refinedCount(const Refinement& r) {
     return r.perLevel.levels.empty() && r.tiled.refinedCount > 0 ? r.tiled.refinedCount : r.perLevel.refinedCount();
 }
 
-// The steps, rules and boundary of --levels, --rules and --boundary.
-RefineOptions baseOptions(const PlayOptions& o) {
-    RefineOptions options;
-    options.levels = o.levels;
-    options.rules = o.rules;
-    options.boundary = o.boundary;
-    return options;
-}
-
 void refineAnimated(Playback& p) {
     const PlayOptions& o = p.o;
     const Mesh& mesh = p.animated.mesh;
@@ -313,7 +304,8 @@ void refineAnimated(Playback& p) {
     if (finest.faces > kMaxFaces)
         throw InputError(o.input + ": --levels " + std::to_string(o.levels) + " would give " +
                          std::to_string(finest.faces) + " refined faces; psub play stops at " + std::to_string(kMaxFaces));
-    RefineOptions options = baseOptions(o);
+    RefineOptions options;
+    options.levels = o.levels, options.rules = o.rules, options.boundary = o.boundary;
     options.factorized = o.form == kFormFactorized;
     options.tiled = o.form == kFormTiled || o.form == kFormAuto;
     // The forced tiled form builds only its own table (lean), and so does auto where it would
@@ -341,12 +333,8 @@ void chooseForm(Playback& p, VulkanContext* context) {
         return;
     }
     p.animated.pose(0, p.control);
-    const auto withoutTiles = [&p] {  // the lean build of the tiled form without a tile
-        RefineOptions options = baseOptions(p.o);
-        options.tiled = true;
-        options.perLevel = false;
-        options.tileSides = TileSides::None;
-        return refine(p.animated.mesh, p.animated.checked.connectivity, options).tiled;
+    const auto withoutTiles = [&p] {
+        return tiledWithoutTiles(p.animated.mesh, p.animated.checked.connectivity, p.o.levels, p.o.rules, p.o.boundary);
     };
     FormChoice choice = fasterForm(p.o.backend, p.refinement, context, p.control, p.refined, withoutTiles);
     p.form = choice.form;

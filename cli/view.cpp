@@ -492,10 +492,8 @@ void Viewer::adopt(Built b) {
         // tiles are few: fasterForm), here on the window's thread: Spot at 9 steps 30-50 ms
         // more at a level change.
         const auto withoutTiles = [&] {
-            RefineOptions options;
-            options.levels = built->levels, options.rules = built->rules, options.boundary = built->boundary;
-            options.tiled = true, options.perLevel = false, options.tileSides = TileSides::None;
-            return refine(animated.mesh, animated.checked.connectivity, options).tiled;
+            return tiledWithoutTiles(animated.mesh, animated.checked.connectivity, built->levels, built->rules,
+                                     built->boundary);
         };
         choice = fasterForm(o.backend, built->ps, context.get(), control, scratch, withoutTiles);
         if (choice.tiled) dropPerLevelTables(built->ps);
