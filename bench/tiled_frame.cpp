@@ -1,10 +1,10 @@
 // psub_tiled_frame (a benchmark, not a test): per-frame time of the tiled form against the
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
-// count) measured in the same run.
+// count) measured in the same run. Memory as psub allocates it (its malloc settings and huge pages).
 //   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair|normals|context]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
-// "build", only the builds, ROUNDS times each in one process with psub's allocator settings
+// "build", only the builds, ROUNDS times each in one process
 // (the per-level table with its surface; the tiled form's lean build), for perf, and with
 // "build-per-level" or "build-lean" only one of them; with "pair",
 // the per-level rows of one mesh on 1 thread, of two copies side by side on 2 threads, and of
@@ -68,12 +68,17 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "psub_tiled_frame: error: %s\n", e.what());
         return 1;
     }
+    // As cli/main.cpp's tuneAllocator, and with its operator new (cli/huge_pages.cpp, linked in):
+    // psub's allocator settings in every mode. Until session 43 the build modes had the first two
+    // only: the cow's lean build at 7 steps then spent 116 ms of its 400-430 faulting in the
+    // rows' last two levels (244-256 ms with huge pages, as psub builds it).
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, INT_MAX);
+    mallopt(M_TOP_PAD, 64 << 20);
     const psub::CheckedMesh checked = psub::checkMesh(mesh);
     psub::RefineOptions options{levels, psub::Preprocess::Auto, false, {}};
     const std::string mode = argc > 5 ? argv[5] : "";
     if (mode == "build" || mode == "build-per-level" || mode == "build-lean") {
-        mallopt(M_MMAP_THRESHOLD, 32 << 20);  // as cli/main.cpp's tuneAllocator
-        mallopt(M_TRIM_THRESHOLD, INT_MAX);
         for (int round = 0; round < rounds; ++round) {
             // One at a time: each build's memory is free again for the next.
             psub::Refinement r;
