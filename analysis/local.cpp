@@ -209,7 +209,7 @@ SparseRowsD composePerLevel(const PerLevelTable& table, const ExtendedShapeRule*
         std::vector<double> weights;
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
-            if (group.kind == RowKind::VertexFromFacePoints)
+            if (readsOwnLevel(group.kind))
                 throw std::invalid_argument("composePerLevel: the table's vertex rows read face points");
             for (std::uint64_t r = 0; r < group.rowCount; ++r) {
                 const std::uint32_t* sources = &table.indices[group.indexBegin + r * group.width];

@@ -140,7 +140,7 @@ std::pair<std::uint64_t, std::uint64_t> shareByWork(const PerLevelTable& table, 
 // from there read the points the level's other rows write.
 std::uint64_t facePointGroupsBegin(const PerLevelTable& table, const StencilLevel& level) {
     std::uint64_t g = level.groupEnd;
-    while (g > level.groupBegin && table.groups[g - 1].kind == RowKind::VertexFromFacePoints) --g;
+    while (g > level.groupBegin && readsOwnLevel(table.groups[g - 1].kind)) --g;
     return g;
 }
 

@@ -32,6 +32,15 @@ NarrowGroup narrowGroup(const PerLevelTable& table, const RowGroup& g, const Nar
 }
 #endif
 
+// Where a row's first source (its centre) lies: the buffer of its other sources, or, for
+// VertexFromCentreAndFacePoints rows, the parent level (psub/tables.h).
+template <class T>
+struct Centre {
+    const T* source;
+    BufferLayout layout;
+    std::uint32_t count;  // the points of that buffer
+};
+
 // Sums `count` source elements listed in `ix` into acc (fixed width W, or `length` when W=0).
 template <class T, int W>
 inline void addElements(T* acc, const std::uint32_t* ix, std::uint32_t count, const T* source,
@@ -47,7 +56,7 @@ inline void addElements(T* acc, const std::uint32_t* ix, std::uint32_t count, co
 // compile time (the common shapes: face quads and triangles, copies, valence 3 and 4), or -1.
 template <class T, int W, int N, int M>
 void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
-                const T* source, BufferLayout sl, T* destination, BufferLayout dl) {
+                const T* source, BufferLayout sl, T* destination, BufferLayout dl, Centre<T> c) {
     const T centre = T(g.centre), edge = T(g.edge), diagonal = T(g.diagonal);
     const std::uint32_t n = N >= 0 ? std::uint32_t(N) : g.n, m = M >= 0 ? std::uint32_t(M) : g.m;
     const std::uint32_t width = 1 + n + m;
@@ -59,13 +68,13 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
         T* out = destination + std::size_t(destinations[r]) * dl.stride + dl.offset;
         if constexpr (W > 0) {
             T acc[W] = {}, edges[W] = {}, diagonals[W] = {};
-            addElements<T, W>(acc, ix, 1, source, sl, centre);
+            addElements<T, W>(acc, ix, 1, c.source, c.layout, centre);
             if (N != 0) addElements<T, W>(edges, ix + 1, n, source, sl, T(1));
             if (M != 0) addElements<T, W>(diagonals, ix + 1 + n, m, source, sl, T(1));
             for (int i = 0; i < W; ++i) out[i] = acc[i] + edge * edges[i] + diagonal * diagonals[i];
         } else {
             for (std::uint32_t i = 0; i < length; ++i) out[i] = 0;
-            addElements<T, 0>(out, ix, 1, source, sl, centre);
+            addElements<T, 0>(out, ix, 1, c.source, c.layout, centre);
             addElements<T, 0>(out, ix + 1, n, source, sl, edge);
             addElements<T, 0>(out, ix + 1 + n, m, source, sl, diagonal);
         }
@@ -89,7 +98,7 @@ void applyGroup(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0,
 template <int N, int M, bool Padded3, bool Lean = false>
 void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                     const float* source, BufferLayout sl, std::uint32_t sourceCount, float* destination,
-                    BufferLayout dl, bool ascending, NarrowGroup narrow) {
+                    BufferLayout dl, bool ascending, NarrowGroup narrow, Centre<float> c) {
     const __m128 centre = _mm_set1_ps(float(g.centre)), edge = _mm_set1_ps(float(g.edge)),
                  diagonal = _mm_set1_ps(float(g.diagonal));
     const std::uint32_t n = N >= 0 ? std::uint32_t(N) : g.n, m = M >= 0 ? std::uint32_t(M) : g.m;
@@ -104,6 +113,15 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
             return _mm_loadu_ps(q);
         return _mm_setr_ps(q[0], q[1], q[2], 0.0f);
     };
+    // The centre, as `load` (Padded3: its buffer padded and packed too).
+    const std::uint32_t centreWide = c.layout.offset + 3 < c.layout.stride ? c.count : c.count - 1;
+    auto loadCentre = [&](std::uint32_t i) __attribute__((always_inline)) {
+        if constexpr (Padded3) return _mm_loadu_ps(c.source + 3 * std::size_t(i));
+        const float* q = c.source + c.layout.offset + std::size_t(i) * c.layout.stride;
+        if (i < centreWide) [[likely]]
+            return _mm_loadu_ps(q);
+        return _mm_setr_ps(q[0], q[1], q[2], 0.0f);
+    };
     const std::uint32_t* indices = table.indices.data() + g.indexBegin;
     const std::uint32_t* destinations = table.destinations.data() + g.rowBegin;
     const __m128 zero = _mm_setzero_ps();
@@ -113,9 +131,9 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
         if constexpr (Lean) {
             __m128 edges = load(ix[1]);
             for (std::uint32_t j = 2; j <= n; ++j) edges = _mm_add_ps(edges, load(ix[j]));
-            return _mm_add_ps(_mm_add_ps(_mm_mul_ps(centre, load(ix[0])), _mm_mul_ps(edge, edges)), diagonalTerm);
+            return _mm_add_ps(_mm_add_ps(_mm_mul_ps(centre, loadCentre(ix[0])), _mm_mul_ps(edge, edges)), diagonalTerm);
         }
-        const __m128 acc = _mm_add_ps(zero, _mm_mul_ps(centre, load(ix[0])));
+        const __m128 acc = _mm_add_ps(zero, _mm_mul_ps(centre, loadCentre(ix[0])));
         __m128 edges = zero, diagonals = zero;
         if (N != 0)
             for (std::uint32_t j = 1; j <= n; ++j) edges = _mm_add_ps(edges, load(ix[j]));
@@ -180,7 +198,7 @@ void applyGroupSse3(const PerLevelTable& table, const RowGroup& g, std::uint64_t
                     narrowBlock(row);
                     continue;
                 }
-                const float *s0 = source + 3 * std::size_t(bases[0]), *s1 = source + 3 * std::size_t(bases[1]),
+                const float *s0 = c.source + 3 * std::size_t(bases[0]), *s1 = source + 3 * std::size_t(bases[1]),
                             *s2 = source + 3 * std::size_t(bases[2]), *s3 = source + 3 * std::size_t(bases[3]);
                 // Each offset by a load of its own: one 8-byte load and the shifts and masks to
                 // split it took a row 1-7% longer (session 36).
@@ -217,11 +235,12 @@ template <class T, int W>
 void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                           const T* source, BufferLayout sl, std::uint32_t sourceCount, T* destination,
                           BufferLayout dl, [[maybe_unused]] bool ascending, [[maybe_unused]] bool sourcePadded,
-                          [[maybe_unused]] const NarrowRows* narrow) {
+                          [[maybe_unused]] const NarrowRows* narrow, Centre<T> c, [[maybe_unused]] bool centrePadded) {
 #if defined(__SSE2__)
     if constexpr (std::is_same_v<T, float> && W == 3) {
         // Untested loads: the cow's frame at 7 steps a fifth shorter (docs/design.md).
-        const bool padded3 = sourcePadded && sl.offset == 0 && sl.stride == 3;
+        const bool padded3 = sourcePadded && sl.offset == 0 && sl.stride == 3 && centrePadded && c.layout.offset == 0 &&
+                             c.layout.stride == 3;
         // Rows without diagonals whose diagonal term, diagonal x 0, is +0 (most rows: face points,
         // vertex points from face points) skip the two additions of 0 (`Lean`): the same bits.
         const bool lean = g.n > 0 && g.m == 0 && !std::signbit(g.diagonal);
@@ -229,11 +248,11 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
             if constexpr (N > 0 && M == 0) {
                 if (lean && padded3)
                     return applyGroupSse3<N, M, true, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl,
-                                                            ascending, narrowGroup(table, g, narrow));
-                if (lean) return applyGroupSse3<N, M, false, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {});
+                                                            ascending, narrowGroup(table, g, narrow), c);
+                if (lean) return applyGroupSse3<N, M, false, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {}, c);
             }
-            if (padded3) return applyGroupSse3<N, M, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {});
-            applyGroupSse3<N, M, false>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {});
+            if (padded3) return applyGroupSse3<N, M, true>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {}, c);
+            applyGroupSse3<N, M, false>(table, g, r0, r1, source, sl, sourceCount, destination, dl, ascending, {}, c);
         };
         if (g.n == 3 && g.m == 0) return apply.template operator()<3, 0>();
         if (g.n == 4 && g.m == 4) return apply.template operator()<4, 4>();
@@ -245,12 +264,12 @@ void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::ui
 #else
     (void)sourceCount;
 #endif
-    if (g.n == 3 && g.m == 0) return applyGroup<T, W, 3, 0>(table, g, r0, r1, source, sl, destination, dl);
-    if (g.n == 4 && g.m == 4) return applyGroup<T, W, 4, 4>(table, g, r0, r1, source, sl, destination, dl);
-    if (g.n == 0 && g.m == 0) return applyGroup<T, W, 0, 0>(table, g, r0, r1, source, sl, destination, dl);
-    if (g.n == 2 && g.m == 0) return applyGroup<T, W, 2, 0>(table, g, r0, r1, source, sl, destination, dl);
-    if (g.n == 3 && g.m == 3) return applyGroup<T, W, 3, 3>(table, g, r0, r1, source, sl, destination, dl);
-    applyGroup<T, W, -1, -1>(table, g, r0, r1, source, sl, destination, dl);
+    if (g.n == 3 && g.m == 0) return applyGroup<T, W, 3, 0>(table, g, r0, r1, source, sl, destination, dl, c);
+    if (g.n == 4 && g.m == 4) return applyGroup<T, W, 4, 4>(table, g, r0, r1, source, sl, destination, dl, c);
+    if (g.n == 0 && g.m == 0) return applyGroup<T, W, 0, 0>(table, g, r0, r1, source, sl, destination, dl, c);
+    if (g.n == 2 && g.m == 0) return applyGroup<T, W, 2, 0>(table, g, r0, r1, source, sl, destination, dl, c);
+    if (g.n == 3 && g.m == 3) return applyGroup<T, W, 3, 3>(table, g, r0, r1, source, sl, destination, dl, c);
+    applyGroup<T, W, -1, -1>(table, g, r0, r1, source, sl, destination, dl, c);
 }
 
 template <class T, int W>
@@ -266,12 +285,18 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
         if (begin >= end) continue;
         const NarrowRows* narrow = readsNarrowRows(g, reads) ? reads.narrow : nullptr;
-        if (g.kind == RowKind::VertexFromFacePoints)  // reads the level's own face points
+        const Centre<T> parent{source, sl, level.sourceCount};
+        if (readsOwnLevel(g.kind)) {  // reads the level's own face points (and a centre in the parent)
+            const bool parentCentre = g.kind == RowKind::VertexFromCentreAndFacePoints;
+            const Centre<T> own{destination, dl, level.destinationCount};
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, destination, dl, level.destinationCount,
-                                       destination, dl, ascending, reads.destinationPadded, narrow);
-        else
+                                       destination, dl, ascending, reads.destinationPadded, narrow,
+                                       parentCentre ? parent : own,
+                                       parentCentre ? reads.sourcePadded : reads.destinationPadded);
+        } else {
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
-                                       destination, dl, ascending, reads.sourcePadded, narrow);
+                                       destination, dl, ascending, reads.sourcePadded, narrow, parent, reads.sourcePadded);
+        }
     }
 }
 

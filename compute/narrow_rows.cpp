@@ -62,7 +62,11 @@ NarrowRows narrowRows(const PerLevelTable& table, std::span<const std::uint8_t> 
 }
 
 bool readsNarrowRows(const RowGroup& group, const RowReads& reads) {
-    const bool padded = group.kind == RowKind::VertexFromFacePoints ? reads.destinationPadded : reads.sourcePadded;
+    // A VertexFromCentreAndFacePoints row's centre is the parent level's, its other sources the
+    // level's own: both buffers padded.
+    const bool padded = group.kind == RowKind::VertexFromCentreAndFacePoints ? reads.destinationPadded && reads.sourcePadded
+                        : readsOwnLevel(group.kind)                           ? reads.destinationPadded
+                                                                               : reads.sourcePadded;
     return group.n == 3 && group.m == 0 && !std::signbit(group.diagonal) && padded;
 }
 

@@ -23,8 +23,10 @@ namespace {
 constexpr std::uint32_t kNone = ~0u;
 
 // Whether a group's rows read the points of their own level (written by the level's earlier
-// groups), not of the level before.
-bool readsChild(const RowGroup& group) { return group.kind == RowKind::VertexFromFacePoints; }
+// groups), not of the level before; and whether their first source (the one every child point's
+// region and rank follow) does: a VertexFromCentreAndFacePoints row's centre is the parent's.
+bool readsChild(const RowGroup& group) { return readsOwnLevel(group.kind); }
+bool firstReadsChild(const RowGroup& group) { return group.kind == RowKind::VertexFromFacePoints; }
 
 // Breadth-first ranks of level `at`'s points (0: the control points), over the pairs each row
 // of the step from it joins (its first source with each other one); each connected component's
@@ -65,17 +67,19 @@ std::vector<std::uint32_t> breadthFirstRanks(const PerLevelTable& table, std::si
 }
 
 // Every source of every row names a point of the level before (the ranks index by it), or of
-// its own level for readsChild groups.
+// its own level for readsChild groups (but a VertexFromCentreAndFacePoints row's centre).
 void checkSources(const PerLevelTable& table) {
     std::uint32_t sourceCount = table.controlCount;
     for (const StencilLevel& level : table.levels) {
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
             const RowGroup& group = table.groups[g];
-            const auto begin = table.indices.begin() + std::ptrdiff_t(group.indexBegin);
-            const auto end = begin + std::ptrdiff_t(group.rowCount * group.width);
-            const std::uint32_t count = readsChild(group) ? level.destinationCount : sourceCount;
-            if (std::any_of(begin, end, [&](std::uint32_t s) { return s >= count; }))
-                throw std::invalid_argument("orderLevelsByRegion: a row names a point its level does not have");
+            const std::uint32_t first = firstReadsChild(group) ? level.destinationCount : sourceCount,
+                                other = readsChild(group) ? level.destinationCount : sourceCount;
+            for (std::uint64_t r = 0; r < group.rowCount; ++r) {
+                const std::uint32_t* row = table.indices.data() + group.indexBegin + r * group.width;
+                if (row[0] >= first || std::any_of(row + 1, row + group.width, [&](std::uint32_t s) { return s >= other; }))
+                    throw std::invalid_argument("orderLevelsByRegion: a row names a point its level does not have");
+            }
             for (std::uint64_t r = 0; r < group.rowCount; ++r)
                 if (table.destinations[group.rowBegin + r] >= level.destinationCount)
                     throw std::invalid_argument("orderLevelsByRegion: a row writes a point its level does not have");
@@ -106,7 +110,7 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
         nextRegion.assign(level.destinationCount, regions - 1);  // a point no row writes: the last
         for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {  // readsChild groups last
             const RowGroup& group = table.groups[g];
-            const std::vector<std::uint32_t>& from = readsChild(group) ? nextRegion : region;
+            const std::vector<std::uint32_t>& from = firstReadsChild(group) ? nextRegion : region;
             for (std::uint64_t r = 0; r < group.rowCount; ++r)
                 nextRegion[table.destinations[group.rowBegin + r]] = from[table.indices[group.indexBegin + r * group.width]];
         }
@@ -138,11 +142,12 @@ void orderLevelsByRegion(PerLevelTable& table, std::uint32_t regions, std::size_
             groupDestinations.assign(table.destinations.begin() + std::ptrdiff_t(rowBegin),
                                      table.destinations.begin() + std::ptrdiff_t(rowBegin + group.rowCount));
             const std::vector<std::uint32_t>& sourcePosition = readsChild(group) ? nextPosition : position;
+            const std::vector<std::uint32_t>& firstPosition = firstReadsChild(group) ? nextPosition : position;
             for (std::uint64_t i = 0; i < group.rowCount; ++i) {
                 const std::uint64_t r = order[i];
                 table.destinations[rowBegin + i] = nextPosition[groupDestinations[r]];
                 for (std::uint64_t j = 0; j < width; ++j)
-                    table.indices[group.indexBegin + i * width + j] = sourcePosition[groupIndices[r * width + j]];
+                    table.indices[group.indexBegin + i * width + j] = (j == 0 ? firstPosition : sourcePosition)[groupIndices[r * width + j]];
             }
         }
         region.swap(nextRegion);
@@ -242,7 +247,7 @@ std::vector<std::uint32_t> numberByAncestor(const PerLevelTable& rows, std::size
         next.assign(step.destinationCount, UINT32_MAX);  // a point no row writes: last
         for (std::uint64_t g = step.groupBegin; g < step.groupEnd; ++g) {  // readsChild groups last
             const RowGroup& group = rows.groups[g];
-            const std::vector<std::uint32_t>& from = readsChild(group) ? next : rank;
+            const std::vector<std::uint32_t>& from = firstReadsChild(group) ? next : rank;
             for (std::uint64_t r = 0; r < group.rowCount; ++r)
                 next[rows.destinations[group.rowBegin + r]] = from[rows.indices[group.indexBegin + r * group.width]];
         }

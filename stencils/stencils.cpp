@@ -34,6 +34,11 @@ RowGroup makeGroup(RowKind kind, std::uint32_t n, std::uint32_t m, Rules rules) 
         std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre, w.edge, w.diagonal);
         break;
     }
+    case RowKind::VertexFromCentreAndFacePoints: {  // psub/tables.h: c - n e, 4 e
+        const VertexWeights w = quadVertexWeights(n, rules);
+        std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre - n * w.diagonal, 4 * w.diagonal, 0.0);
+        break;
+    }
     case RowKind::VertexMixed: {
         const VertexWeights w = mixedVertexWeights(n, m);
         std::tie(g.centre, g.edge, g.diagonal) = std::tuple(w.centre, w.edge, w.diagonal);
@@ -370,7 +375,7 @@ SparseRows composeRows(const PerLevelTable& table, const std::vector<std::uint32
 
 FactorizedTable buildFactorizedTable(const PerLevelTable& perLevel) {
     for (const RowGroup& g : perLevel.groups)
-        if (g.kind == RowKind::VertexFromFacePoints)
+        if (readsOwnLevel(g.kind))
             throw std::invalid_argument("buildFactorizedTable: the table's vertex rows read face points "
                                         "(vertexRowsFromFacePoints); compose the table as the rules built it");
     const std::uint32_t controls = perLevel.controlCount;

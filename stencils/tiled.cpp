@@ -766,7 +766,7 @@ TiledTable buildTiledTable(const PerLevelTable& perLevel, const Level& base, con
     // The walk order follows each level's rows as the rules built them (a vertex row's sources
     // in the parent level).
     for (const RowGroup& g : perLevel.groups)
-        if (g.kind == RowKind::VertexFromFacePoints)
+        if (readsOwnLevel(g.kind))
             throw std::invalid_argument("buildTiledTable: the table's vertex rows read face points "
                                         "(vertexRowsFromFacePoints); build the tiled form first, then rewrite each");
     TiledTable table;

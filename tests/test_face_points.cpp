@@ -1,7 +1,8 @@
 // Tests of vertexRowsFromFacePoints (psub/stencils.h): a regular vertex row rewritten as the mean
-// of the four new face points around it gives the rules' values (hand-computed, and within
-// rounding of the rows as built on every model), reads only points its level writes, and is
-// applied by refine() to every table an evaluator runs.
+// of the four new face points around it, and an extraordinary one as its centre and its face
+// points, give the rules' values (hand-computed, and within rounding of the rows as built on
+// every model), read only points their level writes, and are applied by refine() to every table
+// an evaluator runs.
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
 #include "test_support.h"
@@ -32,8 +33,9 @@ std::uint64_t rowsOfKind(const PerLevelTable& table, RowKind kind, std::uint32_t
     return rows;
 }
 
-// Each level's VertexFromFacePoints rows come after its other groups and read only points that
-// the level's face rows write.
+// Each level's rows that read the level itself (readsOwnLevel) come after its other groups. A
+// VertexFromFacePoints row reads 4 points the level's face rows write; a VertexFromCentreAndFacePoints
+// row of valence n its centre, a point of the parent level, then n such face points.
 void expectFacePointRowsReadFacePoints(const PerLevelTable& table) {
     for (const StencilLevel& level : table.levels) {
         std::vector<char> facePoint(level.destinationCount, 0);
@@ -42,14 +44,21 @@ void expectFacePointRowsReadFacePoints(const PerLevelTable& table) {
             const RowGroup& group = table.groups[g];
             if (group.kind == RowKind::FaceQuad)
                 for (std::uint64_t r = 0; r < group.rowCount; ++r) facePoint[table.destinations[group.rowBegin + r]] = 1;
-            if (group.kind != RowKind::VertexFromFacePoints) {
+            if (!readsOwnLevel(group.kind)) {
                 ASSERT_FALSE(seen) << "a group after the level's face-point rows";
                 continue;
             }
             seen = true;
-            ASSERT_EQ(group.width, 4u);
-            for (std::uint64_t i = group.indexBegin; i < group.indexBegin + 4 * group.rowCount; ++i)
-                ASSERT_TRUE(facePoint[table.indices[i]]) << "reads point " << table.indices[i];
+            const bool centre = group.kind == RowKind::VertexFromCentreAndFacePoints;
+            ASSERT_EQ(group.width, centre ? group.n + 1 : 4u);
+            for (std::uint64_t r = 0; r < group.rowCount; ++r) {
+                const std::uint32_t* row = table.indices.data() + group.indexBegin + r * group.width;
+                if (centre) {
+                    ASSERT_LT(row[0], level.sourceCount);
+                }
+                for (std::uint32_t j = centre ? 1 : 0; j < group.width; ++j)
+                    ASSERT_TRUE(facePoint[row[j]]) << "reads point " << row[j];
+            }
         }
     }
 }
@@ -82,6 +91,51 @@ TEST(FacePoints, ALiftedGridCentreIsHandComputed) {
         const auto corners = faces.face(f);
         const bool touchesCentre = std::find(corners.begin(), corners.end(), Index(centre)) != corners.end();
         EXPECT_EQ(at(out, 25 + std::size_t(f), 2), touchesCentre ? 4.0 : 0.0) << "face " << f;
+    }
+}
+
+// The cube (every vertex of valence 3) with its corner (1, 1, 1) lifted by 9: after one step by
+// the paper's rules (c, d, e = 0, 2/9, 1/9) each corner's point is its place / 9 plus, in z, 2 for
+// the lifted corner's three edge neighbours and 1 for its three diagonals (the lifted corner's
+// own weight is 0); each face point the centroid of its face (+9/4 in z around the lifted corner).
+// Every corner's row reads its centre and its three face points: -1/3 P + 4/9 of their sum.
+TEST(FacePoints, ALiftedCubeCornerIsHandComputed) {
+    const test::Loaded loaded = test::load(test::dataPath("cube.obj"));
+    PerLevelTable table = buildPerLevelTable(test::refine(loaded, 1));
+    ASSERT_EQ(vertexRowsFromFacePoints(table), 8u);
+    EXPECT_EQ(rowsOfKind(table, RowKind::VertexQuad), 0u);
+    EXPECT_EQ(rowsOfKind(table, RowKind::VertexFromCentreAndFacePoints, 3), 8u);
+    expectFacePointRowsReadFacePoints(table);
+    for (const RowGroup& g : table.groups) {
+        if (g.kind == RowKind::VertexFromCentreAndFacePoints) {
+            EXPECT_DOUBLE_EQ(g.centre, -1.0 / 3);
+            EXPECT_DOUBLE_EQ(g.edge, 4.0 / 9);
+        }
+    }
+    std::vector<double> control = loaded.mesh.positions;
+    ASSERT_EQ(control[3 * 6], 1.0);  // vertex 6 is (1, 1, 1)
+    ASSERT_EQ(control[3 * 6 + 1], 1.0);
+    ASSERT_EQ(control[3 * 6 + 2], 1.0);
+    control[3 * 6 + 2] += 9;
+    const std::vector<double> out = evaluated(table, control);
+    for (std::size_t v = 0; v < 8; ++v) {
+        const double* place = loaded.mesh.positions.data() + 3 * v;
+        const int differ = (place[0] != 1) + (place[1] != 1) + (place[2] != 1);  // from (1, 1, 1)
+        const double lift = differ == 1 ? 2 : differ == 2 ? 1 : 0;
+        for (int axis = 0; axis < 3; ++axis)
+            EXPECT_NEAR(out[3 * v + std::size_t(axis)], place[axis] / 9 + (axis == 2 ? lift : 0), 1e-14) << "vertex " << v;
+    }
+    const Faces& faces = loaded.mesh.faces;
+    for (Index f = 0; f < faces.faceCount(); ++f) {
+        double centroid[3] = {0, 0, 0};
+        bool lifted = false;
+        for (Index v : faces.face(f)) {
+            for (int axis = 0; axis < 3; ++axis) centroid[axis] += loaded.mesh.positions[3 * std::size_t(v) + std::size_t(axis)] / 4;
+            lifted = lifted || v == 6;
+        }
+        for (int axis = 0; axis < 3; ++axis)
+            EXPECT_NEAR(out[3 * (8 + std::size_t(f)) + std::size_t(axis)], centroid[axis] + (axis == 2 && lifted ? 2.25 : 0), 1e-14)
+                << "face " << f;
     }
 }
 
@@ -123,11 +177,19 @@ TEST(FacePoints, ARowTheFaceRowsDoNotMatchIsKept) {
     }
 }
 
+// The rows of quads' vertices of valence 2 to 16 but 4, as built.
+std::uint64_t extraordinaryQuadRows(const PerLevelTable& table) {
+    std::uint64_t rows = 0;
+    for (const RowGroup& g : table.groups)
+        if (g.kind == RowKind::VertexQuad && g.n != 4 && g.n >= 2 && g.n <= 16 && g.m == g.n) rows += g.rowCount;
+    return rows;
+}
+
 // On every model, both boundary modes and both rule sets, 3 steps: the rewritten table gives the
-// rows as built within double rounding; with the paper's rules every valence-4 vertex row is
-// rewritten, with Rules::Shape those beside a face with a corner rule are kept.
+// rows as built within double rounding; with the paper's rules every quads' vertex row of
+// valence up to 16 is rewritten; with Rules::Shape those beside a face with a corner rule are kept.
 TEST(FacePoints, EveryModelGivesTheRowsAsBuiltWithinRounding) {
-    std::uint64_t kept = 0;
+    std::uint64_t kept = 0, extraordinary = 0;
     for (const std::string& path : test::allValidModels())
         for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
             for (Rules rules : {Rules::Paper, Rules::Shape}) {
@@ -137,12 +199,17 @@ TEST(FacePoints, EveryModelGivesTheRowsAsBuiltWithinRounding) {
                 PerLevelTable rewritten = built;
                 const std::uint64_t count = vertexRowsFromFacePoints(rewritten);
                 const std::uint64_t valence4 = rowsOfKind(built, RowKind::VertexQuad, 4);
+                const std::uint64_t regular = rowsOfKind(rewritten, RowKind::VertexFromFacePoints),
+                                    others = rowsOfKind(rewritten, RowKind::VertexFromCentreAndFacePoints);
                 if (rules == Rules::Paper) {
-                    EXPECT_EQ(count, valence4);
+                    EXPECT_EQ(regular, valence4);
+                    EXPECT_EQ(others, extraordinaryQuadRows(built));
                 }
-                EXPECT_LE(count, valence4);
-                kept += valence4 - count;
-                EXPECT_EQ(rowsOfKind(rewritten, RowKind::VertexFromFacePoints), count);
+                EXPECT_LE(regular, valence4);
+                EXPECT_LE(others, extraordinaryQuadRows(built));
+                kept += valence4 - regular;
+                extraordinary += others;
+                EXPECT_EQ(regular + others, count);
                 EXPECT_EQ(rewritten.destinations.size(), built.destinations.size());
                 expectFacePointRowsReadFacePoints(rewritten);
                 const std::vector<double> expected = evaluated(built, loaded.mesh.positions),
@@ -153,6 +220,7 @@ TEST(FacePoints, EveryModelGivesTheRowsAsBuiltWithinRounding) {
                     ASSERT_NEAR(actual[i], expected[i], 1e-12 * scale) << "value " << i;
             }
     EXPECT_GT(kept, 0u);  // Rules::Shape kept some
+    EXPECT_GT(extraordinary, 0u);
 }
 
 // Every table refine() hands an evaluator has been rewritten, the tiled form's lean rows too

@@ -43,10 +43,12 @@ void expectATable(const PerLevelTable& table) {
             const RowGroup& group = table.groups[g];
             for (std::uint64_t r = 0; r < group.rowCount; ++r) {
                 ++written[table.destinations[group.rowBegin + r]];
-                const std::uint32_t count =
-                    group.kind == RowKind::VertexFromFacePoints ? level.destinationCount : sourceCount;
+                // The level's own points, but a VertexFromCentreAndFacePoints row's centre.
+                const std::uint32_t count = readsOwnLevel(group.kind) ? level.destinationCount : sourceCount;
+                const std::uint32_t firstCount =
+                    group.kind == RowKind::VertexFromCentreAndFacePoints ? sourceCount : count;
                 for (std::uint32_t j = 0; j < group.width; ++j)
-                    ASSERT_LT(table.indices[group.indexBegin + r * group.width + j], count);
+                    ASSERT_LT(table.indices[group.indexBegin + r * group.width + j], j == 0 ? firstCount : count);
             }
         }
         for (int count : written) ASSERT_EQ(count, 1);

@@ -245,12 +245,13 @@ private:
     char* base_;
 };
 
-// Whether a VertexFromFacePoints row of the table's finest level reads its last vertex.
+// Whether a row of the table's finest level that reads that level (readsOwnLevel) reads its
+// last vertex.
 bool finestVertexRowsReadTheLastVertex(const PerLevelTable& table) {
     const StencilLevel& level = table.levels.back();
     for (std::uint64_t g = level.groupBegin; g < level.groupEnd; ++g) {
         const RowGroup& group = table.groups[g];
-        if (group.kind != RowKind::VertexFromFacePoints) continue;
+        if (!readsOwnLevel(group.kind)) continue;
         for (std::uint64_t i = 0; i < group.rowCount * group.width; ++i)
             if (table.indices[group.indexBegin + i] == level.destinationCount - 1) return true;
     }
@@ -430,12 +431,16 @@ TEST(Evaluator, RowsGiveTheDefinitionsBitsWithZerosOfBothSigns) {
         std::vector<float> expected(3 * std::size_t(level.destinationCount), -1), actual(expected.size(), -2);
         for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
             const RowGroup& g = table->groups[gi];
-            const std::vector<float>& from = g.kind == RowKind::VertexFromFacePoints ? expected : source;
+            // The level's own points, but a VertexFromCentreAndFacePoints row's centre.
+            const std::vector<float>& from = readsOwnLevel(g.kind) ? expected : source;
+            const std::vector<float>& centreFrom = g.kind == RowKind::VertexFromCentreAndFacePoints ? source : from;
             for (std::uint64_t row = 0; row < g.rowCount; ++row) {
                 const std::uint32_t* ix = table->indices.data() + g.indexBegin + row * g.width;
                 float* out = expected.data() + 3 * std::size_t(table->destinations[g.rowBegin + row]);
                 for (int c = 0; c < 3; ++c) {
-                    const auto at = [&](std::uint32_t j) { return from[3 * std::size_t(ix[j]) + std::size_t(c)]; };
+                    const auto at = [&](std::uint32_t j) {
+                        return (j == 0 ? centreFrom : from)[3 * std::size_t(ix[j]) + std::size_t(c)];
+                    };
                     const float acc = 0.0f + float(g.centre) * at(0);
                     float edges = 0.0f, diagonals = 0.0f;
                     for (std::uint32_t j = 1; j <= g.n; ++j) edges = edges + at(j);
@@ -740,14 +745,18 @@ void referenceLevel(const PerLevelTable& table, std::size_t k, const float* sour
     const StencilLevel& level = table.levels[k];
     for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
         const RowGroup& g = table.groups[gi];
-        const bool facePoints = g.kind == RowKind::VertexFromFacePoints;  // reads the level's own points
+        const bool facePoints = readsOwnLevel(g.kind);  // reads the level's own points
+        const bool parentCentre = g.kind == RowKind::VertexFromCentreAndFacePoints;  // but its centre
         const float* from = facePoints ? destination : source;
         const BufferLayout fl = facePoints ? dl : sl;
         for (std::uint64_t r = 0; r < g.rowCount; ++r) {
             const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
             float* out = destination + std::size_t(table.destinations[g.rowBegin + r]) * dl.stride + dl.offset;
             for (int i = 0; i < 3; ++i) {
-                auto at = [&](std::uint32_t j) { return from[std::size_t(ix[j]) * fl.stride + fl.offset + i]; };
+                auto at = [&](std::uint32_t j) {
+                    if (j == 0 && parentCentre) return source[std::size_t(ix[j]) * sl.stride + sl.offset + i];
+                    return from[std::size_t(ix[j]) * fl.stride + fl.offset + i];
+                };
                 float centre = 0, edges = 0, diagonals = 0;
                 centre += float(g.centre) * at(0);
                 for (std::uint32_t j = 1; j <= g.n; ++j) edges += at(j);

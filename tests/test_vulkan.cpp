@@ -200,9 +200,11 @@ TEST_F(Vulkan, PerLevelResultsAreBitIdenticalToTheCpu) {
     // Same operations in the same order, no fused multiply-adds: not just close, equal, in the
     // dispatches of one group (its shape compiled in) as in those of several.
     const Tables t = tablesFor(test::dataPath("cow.obj"), 3);
-    // With refine()'s vertex rows from face points: a second stage per level, reading the first's.
-    ASSERT_TRUE(std::any_of(t.perLevel.groups.begin(), t.perLevel.groups.end(),
-                            [](const RowGroup& g) { return g.kind == RowKind::VertexFromFacePoints; }));
+    // With refine()'s vertex rows from face points: a second stage per level, reading the first's
+    // (the cow's extraordinary vertices' rows too, each reading its own destination first).
+    for (RowKind kind : {RowKind::VertexFromFacePoints, RowKind::VertexFromCentreAndFacePoints})
+        ASSERT_TRUE(std::any_of(t.perLevel.groups.begin(), t.perLevel.groups.end(),
+                                [kind](const RowGroup& g) { return g.kind == kind; }));
     CpuEvaluator<float> cpu(t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3, 2);
     VulkanEvaluator gpu(context(), t.perLevel, t.factorized, t.surface, TableForm::PerLevel, 3);
     const std::vector<float> control = animate(t.loaded.mesh.positions, 3, 1);

@@ -135,18 +135,29 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
     // group of its intermediate levels) writes row r at its first destination + r, its rows'
     // words the sources alone (PSUB_SPEC_IMPLICIT_DESTINATION).
     constexpr std::uint64_t kMergedRows = 1 << 14;
+    // A VertexFromCentreAndFacePoints row, whose centre is the parent level's and its other
+    // sources the level's own, runs here as two (level.comp reads one level a dispatch): in the
+    // first stage a copy of its centre to its destination (`CentreCopy`: a retained row's shape,
+    // words [P]), in the second the row reading that copy (`InPlace`: words [its destination, its
+    // face points]; each invocation reads it before it writes it). The same products and sums in
+    // the same order as the CPU's row: the same bits.
+    enum class Words { AsTable, CentreCopy, InPlace };
     struct Part {
         const RowGroup* group;
         std::uint64_t a, b;  // its rows [a, b)
+        Words words = Words::AsTable;
+        std::uint32_t n() const { return words == Words::CentreCopy ? 0 : group->n; }
+        std::uint32_t m() const { return words == Words::CentreCopy ? 0 : group->m; }
+        std::uint32_t width() const { return 1 + n() + m(); }
     };
     struct Pending {
         std::size_t level;
-        bool readsChild;  // VertexFromFacePoints groups: read the level they write
+        bool readsChild;  // readsOwnLevel groups: read the level they write
         std::vector<Part> parts;
         bool implicitDestination = false;  // one part, its destinations consecutive
     };
-    const auto strideOf = [](const RowGroup& g, bool implicit = false) {
-        return (std::uint64_t(g.width) + (implicit ? 3 : 4)) / 4 * 4;
+    const auto strideOf = [](const Part& part, bool implicit = false) {
+        return (std::uint64_t(part.width()) + (implicit ? 3 : 4)) / 4 * 4;
     };
     const auto consecutive = [&](const RowGroup& g, std::uint64_t a, std::uint64_t b) {
         const std::uint32_t* d = table.destinations.data() + g.rowBegin;
@@ -163,22 +174,24 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             std::uint64_t mergedWords = 0, mergedRows = 0;
             for (std::uint64_t gi = level.groupBegin; gi < level.groupEnd; ++gi) {
                 const RowGroup& g = table.groups[gi];
-                if (g.rowCount == 0 || (g.kind == RowKind::VertexFromFacePoints) != readsChild) continue;
-                const std::uint64_t stride = strideOf(g), words = g.rowCount * stride;
+                const bool twoStages = g.kind == RowKind::VertexFromCentreAndFacePoints;
+                if (g.rowCount == 0 || (readsOwnLevel(g.kind) != readsChild && !twoStages)) continue;
+                const Words shape = !twoStages ? Words::AsTable : readsChild ? Words::InPlace : Words::CentreCopy;
+                const std::uint64_t stride = strideOf({&g, 0, 0, shape}), words = g.rowCount * stride;
                 const bool alone = !fits(4 * words) || padded(g.rowCount) > maxRows;
                 if (g.rowCount < kMergedRows && !alone) {
                     if (!fits(4 * (mergedWords + words)) || mergedRows + padded(g.rowCount) > maxRows) {
                         pending.push_back(std::move(merged));
                         merged = {k, readsChild, {}}, mergedWords = 0, mergedRows = 0;
                     }
-                    merged.parts.push_back({&g, 0, g.rowCount});
+                    merged.parts.push_back({&g, 0, g.rowCount, shape});
                     mergedWords += words, mergedRows += padded(g.rowCount);
                     continue;
                 }
                 for (const auto& [a, b] : split(
                          g.rowCount, [&](std::uint64_t x, std::uint64_t y) { return fits(4 * stride * (y - x)); },
                          "per-level table"))
-                    pending.push_back({k, readsChild, {{&g, a, b}}, consecutive(g, a, b)});
+                    pending.push_back({k, readsChild, {{&g, a, b, shape}}, consecutive(g, a, b)});
             }
             if (!merged.parts.empty()) pending.push_back(std::move(merged));
         }
@@ -194,9 +207,10 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
         std::uint32_t row = 0;
         for (const Part& part : p.parts) {
             const RowGroup& g = *part.group;
-            records.push_back({row, std::uint32_t(wordCount - wordFirst), g.n, g.m, float(g.centre), float(g.edge),
-                               float(g.diagonal), std::uint32_t(part.b - part.a)});
-            wordCount += (part.b - part.a) * strideOf(g, p.implicitDestination);
+            const bool copy = part.words == Words::CentreCopy;
+            records.push_back({row, std::uint32_t(wordCount - wordFirst), part.n(), part.m(), copy ? 1.0f : float(g.centre),
+                               copy ? 0.0f : float(g.edge), copy ? 0.0f : float(g.diagonal), std::uint32_t(part.b - part.a)});
+            wordCount += (part.b - part.a) * strideOf(part, p.implicitDestination);
             row += std::uint32_t(p.parts.size() > 1 ? padded(part.b - part.a) : part.b - part.a);
         }
     }
@@ -209,10 +223,11 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             for (const Pending& p : pending)
                 for (const Part& part : p.parts) {
                     const RowGroup& g = *part.group;
-                    const std::uint64_t stride = strideOf(g, p.implicitDestination);
+                    const std::uint64_t stride = strideOf(part, p.implicitDestination);
                     for (std::uint64_t r = part.a; r < part.b; ++r, words += stride) {
                         const std::uint32_t* ix = table.indices.data() + g.indexBegin + r * g.width;
-                        std::uint32_t* end = std::copy(ix, ix + g.width, words);
+                        std::uint32_t* end = std::copy(ix, ix + part.width(), words);
+                        if (part.words == Words::InPlace) words[0] = table.destinations[g.rowBegin + r];
                         if (!p.implicitDestination) *end++ = table.destinations[g.rowBegin + r];
                         std::fill(end, words + stride, 0u);
                     }
@@ -220,7 +235,7 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
         },
         tables);
     // Per level, a stage of the rows that read the parent level, then (after its barrier) one of
-    // the VertexFromFacePoints rows, which read the face points the first wrote.
+    // the rows that read the level's own points (readsOwnLevel), which the first wrote.
     for (std::size_t k = 0; k < table.levels.size(); ++k)
         for (const bool readsChild : {false, true}) {
             const VertexBuffer& from = levels[readsChild ? k + 1 : k];
@@ -231,12 +246,13 @@ void VulkanEvaluator::Impl::buildPerLevel(const PerLevelTable& table, Uploader& 
             for (std::size_t i = 0; i < pending.size(); ++i) {
                 const Pending& p = pending[i];
                 if (p.level != k || p.readsChild != readsChild) continue;
-                const RowGroup& g = *p.parts.front().group;
+                const Part& front = p.parts.front();
+                const RowGroup& g = *front.group;
                 const GroupRecord& last = records[firstRecord[i + 1] - 1];
                 Dispatch d = dispatch(last.rowBegin + last.rowCount);
-                const bool shaped = p.parts.size() == 1 && specialisedShape(g.n, g.m);
-                d.rowN = shaped ? g.n : kAnyShape;
-                d.rowM = shaped ? g.m : kAnyShape;
+                const bool shaped = p.parts.size() == 1 && specialisedShape(front.n(), front.m());
+                d.rowN = shaped ? front.n() : kAnyShape;
+                d.rowM = shaped ? front.m() : kAnyShape;
                 d.implicitDestination = p.implicitDestination;
                 if (p.implicitDestination) d.push.rowBase = table.destinations[g.rowBegin + p.parts.front().a];
                 d.source = &from;

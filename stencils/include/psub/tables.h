@@ -30,12 +30,25 @@ enum class RowKind : std::uint8_t {
     // points, 1/4 each (n = 3, m = 0, as FaceQuad). Only as a level's last groups: the level's
     // other rows write what these read.
     VertexFromFacePoints,
+    // A VertexQuad row of another valence n (2 to 16) whose edge weight is twice its diagonal one
+    // (every valence under the paper's rules, d = 2 e) rewritten the same way
+    // (vertexRowsFromFacePoints): its centre P, a point of the parent level, then the n new face
+    // points of its faces, the level's own: centre c - n e, edge 4 e (n = n, m = 0). Only as a
+    // level's last groups, after its VertexFromFacePoints ones.
+    VertexFromCentreAndFacePoints,
 };
+
+// Whether a group's rows read points of the level they write (written by the level's earlier
+// groups): all of them, or all but the first (VertexFromCentreAndFacePoints: its centre).
+inline bool readsOwnLevel(RowKind kind) {
+    return kind == RowKind::VertexFromFacePoints || kind == RowKind::VertexFromCentreAndFacePoints;
+}
 
 // A run of rows of one kind and shape within one level. Row r of the group has `width`
 // = 1 + n + m source indices at indices[indexBegin + (r - rowBegin) * width]: the centre with
 // weight `centre`, then n with weight `edge`, then m with weight `diagonal`. The sources are
-// points of the parent level, except in VertexFromFacePoints groups (the child level's).
+// points of the parent level, except in readsOwnLevel groups (the child level's; the centre of
+// a VertexFromCentreAndFacePoints row is the parent level's).
 struct RowGroup {
     RowKind kind;
     std::uint32_t n, m, width;
