@@ -31,10 +31,14 @@ SurfaceTable buildSurfaceTable(Faces finest);
 // 1/16), whose four faces all have FaceQuad rows in its level, becomes a VertexFromFacePoints
 // row: the mean of those four new face points. In real arithmetic the two are equal (the four
 // face points sum to (4 P + 2 sum(edges) + sum(diagonals)) / 4), in float within rounding; the
-// row reads 4 points instead of 9. Each level's rewritten rows keep their order, in one group
-// after the level's others. Returns how many rows were rewritten. refine() applies it to the
-// tables it returns unless RefineOptions::vertexRowsFromFacePoints is false (docs/design.md,
-// "Vertex points from face points"). std::invalid_argument on a table rewritten already.
+// row reads 4 points instead of 9. Likewise every VertexQuad row of another valence n (2 to 16)
+// whose edge weight is twice its diagonal weight e (the paper's, at every n) and whose n faces all
+// have such rows becomes a VertexFromCentreAndFacePoints row: (c - n e) P + 4 e sum(face points),
+// n + 1 points instead of 2n + 1. Each level's rewritten rows keep their order, in groups after
+// the level's others (psub/tables.h). Returns how many rows were rewritten. refine() applies it
+// to the tables it returns unless RefineOptions::vertexRowsFromFacePoints is false
+// (docs/design.md, "Vertex points from face points"). std::invalid_argument on a table rewritten
+// already.
 std::uint64_t vertexRowsFromFacePoints(PerLevelTable& table);
 
 // Cuts the control mesh into `regions` regions of about equal point counts (runs of a breadth-
