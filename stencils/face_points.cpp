@@ -17,8 +17,8 @@ namespace {
 
 // The face rows around each parent point of one level: up to 4 per point, each as its face point
 // and its corner opposite the point (a slot of 2 indices), and how many face rows name the point.
-// The centres of extraordinary rows (`extraordinary`: those rewritableExtraordinary takes) get n
-// slots each, in `wide`: point p's from wideBegin[wideId[p]], wideCount[...] of them filled.
+// The centres of the rows rewritableExtraordinary takes get n slots each in wideSlots: point p's
+// from wideBegin[wideId[p]], wideCount[wideId[p]] face rows found (more than n: the row is kept).
 struct FacesAround {
     std::unique_ptr<std::uint32_t[]> slots;  // uninitialised: read only where `count` says written
     std::vector<std::uint8_t> count;         // up to 5 (more than 4 is all that matters)
