@@ -389,11 +389,16 @@ TEST(Evaluator, NarrowRowsCopyOnlyTheGroupsThatReadThem) {
 }
 
 // Which groups read the narrow copy: four sources, a diagonal term of +0, the buffer they read
-// padded (the parent level's, or for vertex points from face points the level's own).
+// padded (the parent level's, or for vertex points from face points the level's own; both for a
+// valence-3 vertex from its centre, the parent's, and its face points).
 TEST(Evaluator, NarrowRowsAreReadByLeanFourSourceRowsOfPaddedBuffers) {
     const RowGroup face{RowKind::FaceQuad, 3, 0, 4, 0, 1, 0, 0.25, 0.25, 0.0};
-    RowGroup fromFacePoints = face, negativeZero = face, triangle = face, valence3 = face;
+    RowGroup fromFacePoints = face, negativeZero = face, triangle = face, valence3 = face, fromCentre = face;
     fromFacePoints.kind = RowKind::VertexFromFacePoints;
+    fromCentre.kind = RowKind::VertexFromCentreAndFacePoints, fromCentre.centre = -1.0 / 3, fromCentre.edge = 4.0 / 9;
+    EXPECT_TRUE(readsNarrowRows(fromCentre, RowReads{.sourcePadded = true, .destinationPadded = true}));
+    EXPECT_FALSE(readsNarrowRows(fromCentre, RowReads{.sourcePadded = true}));
+    EXPECT_FALSE(readsNarrowRows(fromCentre, RowReads{.destinationPadded = true}));
     negativeZero.diagonal = -0.0;
     triangle.kind = RowKind::FaceTriangle, triangle.n = 2, triangle.width = 3;
     valence3.kind = RowKind::VertexQuad, valence3.m = 3, valence3.width = 7;

@@ -53,7 +53,7 @@ std::uint64_t narrowBytesSaved(const PerLevelTable& table, const NarrowRows& nar
 struct RowReads {
     // Every vertex the rows read from the source (the destination) can be read 16 bytes at a
     // time: at least one more value can be read past its last vertex, or (the destination) no
-    // VertexFromFacePoints row reads that vertex. The kernel then reads them so, untested.
+    // readsOwnLevel row reads that vertex. The kernel then reads them so, untested.
     bool sourcePadded = false, destinationPadded = false;
     // The table's rows as narrowRows made them from it, read instead of `indices` where a row
     // fits (float, 3 values per vertex, packed buffers, readsNarrowRows), or null.
@@ -61,7 +61,8 @@ struct RowReads {
 };
 // Whether evaluateLevelRows reads group `group`'s rows from `reads.narrow` (float, 3 values a
 // vertex, packed buffers): four sources, a diagonal term of +0 (the kernel's lean rows), and the
-// buffer they read (the destination for VertexFromFacePoints rows) padded. What narrowRows's
+// buffers they read padded (the destination for readsOwnLevel rows; for a
+// VertexFromCentreAndFacePoints row the source too, its centre's). What narrowRows's
 // `copied` should mark for a frame that reads so.
 bool readsNarrowRows(const RowGroup& group, const RowReads& reads);
 
@@ -94,8 +95,9 @@ private:
 
 // Rows [rowBegin, rowEnd) of per-level table `level` (numbered within the level, in table
 // order): `source` holds the parent level's vertices, `destination` the child level's.
-// VertexFromFacePoints rows (a level's last groups) read `destination`: the level's rows before
-// them must have been written (on one thread, the rows in table order do that).
+// readsOwnLevel rows (a level's last groups) read `destination` (but a
+// VertexFromCentreAndFacePoints row's centre, from `source`): the level's rows before them must
+// have been written (on one thread, the rows in table order do that).
 template <class T>
 void evaluateLevelRows(const PerLevelTable& table, std::size_t level, const T* source,
                        BufferLayout sourceLayout, T* destination, BufferLayout destinationLayout,
@@ -283,7 +285,7 @@ private:
     int threads_;
     std::vector<T> levels_;                 // intermediate levels, back to back
     std::vector<std::uint64_t> levelBase_;  // offset of each intermediate level in levels_
-    // No VertexFromFacePoints row of the finest level reads its last vertex, so they may read
+    // No readsOwnLevel row of the finest level reads its last vertex, so they may read
     // every vertex of the output 16 bytes at a time (finestOwnReadsWide).
     bool finestOwnReadsWide_ = false;
     NarrowRows narrow_;  // the rows' narrow indices (float, width 3; else empty)
