@@ -39,6 +39,7 @@ struct Centre {
     const T* source;
     BufferLayout layout;
     std::uint32_t count;  // the points of that buffer
+    bool padded;          // one more value readable past its last point (RowReads)
 };
 
 // Sums `count` source elements listed in `ix` into acc (fixed width W, or `length` when W=0).
@@ -235,11 +236,11 @@ template <class T, int W>
 void applyGroupOfAnyShape(const PerLevelTable& table, const RowGroup& g, std::uint64_t r0, std::uint64_t r1,
                           const T* source, BufferLayout sl, std::uint32_t sourceCount, T* destination,
                           BufferLayout dl, [[maybe_unused]] bool ascending, [[maybe_unused]] bool sourcePadded,
-                          [[maybe_unused]] const NarrowRows* narrow, Centre<T> c, [[maybe_unused]] bool centrePadded) {
+                          [[maybe_unused]] const NarrowRows* narrow, Centre<T> c) {
 #if defined(__SSE2__)
     if constexpr (std::is_same_v<T, float> && W == 3) {
         // Untested loads: the cow's frame at 7 steps a fifth shorter (docs/design.md).
-        const bool padded3 = sourcePadded && sl.offset == 0 && sl.stride == 3 && centrePadded && c.layout.offset == 0 &&
+        const bool padded3 = sourcePadded && sl.offset == 0 && sl.stride == 3 && c.padded && c.layout.offset == 0 &&
                              c.layout.stride == 3;
         // Rows without diagonals whose diagonal term, diagonal x 0, is +0 (most rows: face points,
         // vertex points from face points) skip the two additions of 0 (`Lean`): the same bits.
@@ -285,17 +286,15 @@ void levelRows(const PerLevelTable& table, const StencilLevel& level, const T* s
         const std::uint64_t begin = std::max(rowBegin, first), end = std::min(rowEnd, first + g.rowCount);
         if (begin >= end) continue;
         const NarrowRows* narrow = readsNarrowRows(g, reads) ? reads.narrow : nullptr;
-        const Centre<T> parent{source, sl, level.sourceCount};
+        const Centre<T> parent{source, sl, level.sourceCount, reads.sourcePadded};
         if (readsOwnLevel(g.kind)) {  // reads the level's own face points (and a centre in the parent)
-            const bool parentCentre = g.kind == RowKind::VertexFromCentreAndFacePoints;
-            const Centre<T> own{destination, dl, level.destinationCount};
+            const Centre<T> own{destination, dl, level.destinationCount, reads.destinationPadded};
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, destination, dl, level.destinationCount,
                                        destination, dl, ascending, reads.destinationPadded, narrow,
-                                       parentCentre ? parent : own,
-                                       parentCentre ? reads.sourcePadded : reads.destinationPadded);
+                                       g.kind == RowKind::VertexFromCentreAndFacePoints ? parent : own);
         } else {
             applyGroupOfAnyShape<T, W>(table, g, begin - first, end - first, source, sl, level.sourceCount,
-                                       destination, dl, ascending, reads.sourcePadded, narrow, parent, reads.sourcePadded);
+                                       destination, dl, ascending, reads.sourcePadded, narrow, parent);
         }
     }
 }
