@@ -67,22 +67,39 @@ template <std::size_t Block, class Point>
 
 // Row j (1 <= j <= n - 2) of the quincunx level of the n x n grid `c` (spacing 1): v, the
 // V-points of c's inner vertices (x, j), v[x - 1] for x = 1 .. n - 2, and f, the F-points of
-// the cells whose first corner is (x, j), f[x] for x = 0 .. n - 2. The F-point of (x, j) is
-// made in the loop of the V-point of (x, j), whose loads it reuses (the kernel is bound by its
-// loads and stores, not its arithmetic).
+// the cells whose first corner is (x, j), f[x] for x = 0 .. n - 2. A cell's F-point is the mean
+// of its corners, its two diagonals' pairs summed first; a vertex's V-point the mean of its four
+// cells' F-points, the two diagonally opposite pairs summed first (docs/tiled.md, "The regular
+// masks": the 9-point mask regrouped, fewer operations on lavapipe, the same on this kernel, which
+// is bound by its loads and stores). The F-point of (x, j) is made in the loop of the V-point of
+// (x, j), whose loads it shares; the F-points of row j - 1 are read from `fBelow` (that row's
+// f, made before) where given, else made again.
 template <std::size_t Block, class T>
-[[gnu::always_inline]] inline void quincunxRow(const T* __restrict c, std::size_t n, std::size_t j, T* __restrict v,
-                                               T* __restrict f) {
-    const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
+[[gnu::always_inline]] inline void quincunxRow(const T* __restrict c, std::size_t n, std::size_t j,
+                                               const T* __restrict fBelow, T* __restrict v, T* __restrict f) {
+    const T quarter = T(0.25);
     const T* down = c + (j - 1) * n;
     const T* mid = c + j * n;
     const T* up = c + (j + 1) * n;
     f[0] = quarter * ((mid[0] + up[1]) + (mid[1] + up[0]));
+    if (fBelow) {
+        inBlocks<Block>(n - 2, [&](std::size_t a) __attribute__((always_inline)) {
+            const std::size_t x = a + 1;
+            const T here = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));      // F(x, j)
+            const T left = quarter * ((mid[x - 1] + up[x]) + (mid[x] + up[x - 1]));      // F(x - 1, j)
+            v[x - 1] = quarter * ((fBelow[x - 1] + here) + (fBelow[x] + left));
+            f[x] = here;
+        });
+        return;
+    }
     inBlocks<Block>(n - 2, [&](std::size_t a) __attribute__((always_inline)) {
         const std::size_t x = a + 1;
-        v[x - 1] = quarter * mid[x] + eighth * ((down[x] + up[x]) + (mid[x - 1] + mid[x + 1])) +
-                   sixteenth * ((down[x - 1] + up[x + 1]) + (down[x + 1] + up[x - 1]));
-        f[x] = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));
+        const T here = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));              // F(x, j)
+        const T left = quarter * ((mid[x - 1] + up[x]) + (mid[x] + up[x - 1]));              // F(x - 1, j)
+        const T belowLeft = quarter * ((down[x - 1] + mid[x]) + (down[x] + mid[x - 1]));     // F(x - 1, j - 1)
+        const T below = quarter * ((down[x] + mid[x + 1]) + (down[x + 1] + mid[x]));         // F(x, j - 1)
+        v[x - 1] = quarter * ((belowLeft + here) + (below + left));
+        f[x] = here;
     });
 }
 
@@ -91,30 +108,34 @@ template <std::size_t Block, class T>
 // f0, fm, fp = F(j), F(j - 1), F(j + 1) (f_j[i] = F(i, j), the F-point of the cell (i, j)-(i+1,
 // j+1)); points 2 a and 2 a + 1 of a row have i = a + i0. Row q, on c's row j: V-points of
 // V(i, j) (even p), diamonds across x (odd p); row q + 1, between c's rows j and j + 1:
-// diamonds across y (even p), V-points of F(i, j) (odd p). Both rows in one loop, each point
-// written in place: their four kinds of points share most of their loads (the kernel is bound
-// by its loads and stores, not its arithmetic), in blocks (inBlocks). The lambdas
-// are forced inline: called from inBlocks's lambda GCC otherwise called them point by point
-// (3x slower).
+// diamonds across y (even p), V-points of F(i, j) (odd p). A diamond (the quincunx level's face)
+// is the mean of its two V-points and its two F-points, each pair summed first; a V-point the
+// mean of the four diamonds around its vertex, the two opposite pairs summed first (as
+// quincunxRow's). Both rows in one loop, each point written in place: their four kinds of
+// points share their loads (the kernel is bound by its loads and stores, not its arithmetic),
+// in blocks (inBlocks). The lambdas are forced inline: called from inBlocks's lambda GCC
+// otherwise called them point by point (3x slower).
 template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void fineRows(const T* __restrict v0, const T* __restrict vm, const T* __restrict v1,
                                             const T* __restrict f0, const T* __restrict fm, const T* __restrict fp,
                                             std::size_t i0, std::size_t count, T* __restrict out,
                                             T* __restrict next) {
-    const T quarter = T(0.25), eighth = T(0.125), sixteenth = T(0.0625);
-    const auto vertexOfV = [&](std::size_t i) __attribute__((always_inline)) {
-        return quarter * v0[i - 1] + eighth * ((fm[i - 1] + f0[i]) + (fm[i] + f0[i - 1])) +
-               sixteenth * ((v0[i - 2] + v0[i]) + (vm[i - 1] + v1[i - 1]));
-    };
-    const auto acrossX = [&](std::size_t i) __attribute__((always_inline)) {
+    const T quarter = T(0.25);
+    const auto acrossX = [&](std::size_t i) __attribute__((always_inline)) {  // between V(i, j) and V(i + 1, j)
         return quarter * ((v0[i - 1] + v0[i]) + (fm[i] + f0[i]));
     };
-    const auto acrossY = [&](std::size_t i) __attribute__((always_inline)) {
+    const auto acrossY = [&](std::size_t i) __attribute__((always_inline)) {  // between V(i, j) and V(i, j + 1)
         return quarter * ((v0[i - 1] + v1[i - 1]) + (f0[i - 1] + f0[i]));
     };
+    const auto vertexOfV = [&](std::size_t i) __attribute__((always_inline)) {
+        const T left = quarter * ((v0[i - 2] + v0[i - 1]) + (fm[i - 1] + f0[i - 1]));  // across x, from V(i - 1, j)
+        const T below = quarter * ((vm[i - 1] + v0[i - 1]) + (fm[i - 1] + fm[i]));     // across y, from V(i, j - 1)
+        return quarter * ((left + acrossX(i)) + (below + acrossY(i)));
+    };
     const auto vertexOfF = [&](std::size_t i) __attribute__((always_inline)) {
-        return quarter * f0[i] + eighth * ((v0[i - 1] + v1[i]) + (v0[i] + v1[i - 1])) +
-               sixteenth * ((f0[i - 1] + f0[i + 1]) + (fm[i] + fp[i]));
+        const T right = quarter * ((v0[i] + v1[i]) + (f0[i] + f0[i + 1]));  // across y, from V(i + 1, j)
+        const T above = quarter * ((v1[i - 1] + v1[i]) + (f0[i] + fp[i]));  // across x, from V(i, j + 1)
+        return quarter * ((acrossY(i) + right) + (acrossX(i) + above));
     };
     if (!next) {
         inBlocks<Block>(count, [&](std::size_t a) __attribute__((always_inline)) {
@@ -150,12 +171,15 @@ template <std::size_t Block, class T>
     const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2, j = q / 2 + 2;
     T* const v[3] = {ring, ring + nv, ring + 2 * nv};
     T* const cells[3] = {ring + 3 * nv, ring + 3 * nv + nf, ring + 3 * nv + 2 * nf};
-    const auto row = [&](std::size_t r) { quincunxRow<Block>(c, n, r, v[r % 3], cells[r % 3]); };
+    // Row r's V-points read row r - 1's F-points, made just before it but for the first row.
+    const auto row = [&](std::size_t r, bool first) __attribute__((always_inline)) {
+        quincunxRow<Block>(c, n, r, first ? nullptr : cells[(r - 1) % 3], v[r % 3], cells[r % 3]);
+    };
     if (q == from) {
-        row(j - 1);
-        row(j);
+        row(j - 1, true);
+        row(j, false);
     }
-    row(j + 1);
+    row(j + 1, false);
     // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
     const bool last = q == from + 2 * count;
     fineRows<Block>(v[j % 3], v[(j - 1) % 3], v[(j + 1) % 3], cells[j % 3], cells[(j - 1) % 3],

@@ -33,44 +33,43 @@ void writeValues(uint element, uint first, vec4 value) {
     for (uint i = 0u; i < 4u && first + i < kComponents; ++i) writeDestination(p, first + i, value[i]);
 }
 
-// The V-point of a regular vertex v: its four edge neighbours as the opposite pairs (a, b) and
-// (c, d), its four diagonal ones as the opposite pairs (e, f) and (g, h) (weights 1/4, 1/8,
-// 1/16). Pairing opposite points makes the sum the same under the rotations and reflections
-// between two tiles' frames.
-vec4 vertexPoint(vec4 v, vec4 a, vec4 b, vec4 c, vec4 d, vec4 e, vec4 f, vec4 g, vec4 h) {
-    precise vec4 value = 0.25 * v + 0.125 * ((a + b) + (c + d)) + 0.0625 * ((e + f) + (g + h));
-    return value;
-}
-
-// The F-point of a quad: (a, b) and (c, d) its two pairs of opposite corners.
+// The mean of four points given as two opposite pairs (a, b) and (c, d): a quad's F-point (its
+// two diagonals' pairs of corners), and a regular vertex's V-point (the F-points of its four new
+// faces, opposite ones paired: the 9-point mask 1/4, 1/8, 1/16 regrouped). Pairing opposite
+// points makes the sum the same under the rotations and reflections between two tiles' frames.
 vec4 facePoint(vec4 a, vec4 b, vec4 c, vec4 d) {
     precise vec4 value = 0.25 * ((a + b) + (c + d));
     return value;
 }
 
-// The quincunx level of the n x n grid: the V-point of its inner vertex c, the F-point of the
-// cell whose first corner is c.
-vec4 quincunxVertex(uint c, uint n) {
-    return vertexPoint(grid[c], grid[c - n], grid[c + n], grid[c - 1u], grid[c + 1u], grid[c - n - 1u], grid[c + n + 1u],
-                       grid[c - n + 1u], grid[c + n - 1u]);
-}
+// The quincunx level of the n x n grid: the F-point of the cell whose first corner is c, the
+// V-point of its inner vertex c (the mean of its four cells' F-points, diagonally opposite
+// pairs first, as the CPU kernel's).
 vec4 quincunxFace(uint c, uint n) { return facePoint(grid[c], grid[c + n + 1u], grid[c + 1u], grid[c + n]); }
+vec4 quincunxVertex(uint c, uint n) {
+    return facePoint(quincunxFace(c - n - 1u, n), quincunxFace(c, n), quincunxFace(c - n, n), quincunxFace(c - 1u, n));
+}
+
+// The diamond (a face of the quincunx level) across x from V(i, j) = qv[v], between it and
+// V(i + 1, j), and across y, between it and V(i, j + 1); F(i, j) = qf[f].
+vec4 acrossX(uint v, uint f, uint nf) { return facePoint(qv[v], qv[v + 1u], qf[f - nf], qf[f]); }
+vec4 acrossY(uint v, uint f, uint nv) { return facePoint(qv[v], qv[v + nv], qf[f - 1u], qf[f]); }
 
 // The fine point of parities (px, py) at V(i, j) = qv[v] and F(i, j) = qf[f] of a quincunx level
-// with nv x nv V-points and nf x nf F-points. Call with constant parities: the rule is chosen
-// when compiling (lavapipe would run all four rules for every lane under a branch).
+// with nv x nv V-points and nf x nf F-points: the diamonds, and the V-points as the mean of the
+// four diamonds around them, opposite pairs first (as the CPU kernel's). Call with constant
+// parities: the rule is chosen when compiling (lavapipe would run all four rules for every lane
+// under a branch).
 vec4 finePoint(const uint px, const uint py, uint v, uint f, uint nv, uint nf) {
     vec4 value;
     if (px == 0u && py == 0u)  // the V-point of V(i, j)
-        value = vertexPoint(qv[v], qf[f - nf - 1u], qf[f], qf[f - nf], qf[f - 1u], qv[v - 1u], qv[v + 1u], qv[v - nv],
-                            qv[v + nv]);
-    else if (py == 0u)  // the diamond across x
-        value = facePoint(qv[v], qv[v + 1u], qf[f - nf], qf[f]);
-    else if (px == 0u)  // the diamond across y
-        value = facePoint(qv[v], qv[v + nv], qf[f - 1u], qf[f]);
+        value = facePoint(acrossX(v - 1u, f - 1u, nf), acrossX(v, f, nf), acrossY(v - nv, f - nf, nv), acrossY(v, f, nv));
+    else if (py == 0u)
+        value = acrossX(v, f, nf);
+    else if (px == 0u)
+        value = acrossY(v, f, nv);
     else  // the V-point of F(i, j)
-        value = vertexPoint(qf[f], qv[v], qv[v + nv + 1u], qv[v + 1u], qv[v + nv], qf[f - 1u], qf[f + 1u], qf[f - nf],
-                            qf[f + nf]);
+        value = facePoint(acrossY(v, f, nv), acrossY(v + 1u, f + 1u, nv), acrossX(v, f, nf), acrossX(v + nv, f + nf, nf));
     return value;
 }
 
