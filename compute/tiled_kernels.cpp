@@ -69,11 +69,10 @@ template <std::size_t Block, class Point>
 // V-points of c's inner vertices (x, j), v[x - 1] for x = 1 .. n - 2, and f, the F-points of
 // the cells whose first corner is (x, j), f[x] for x = 0 .. n - 2. A cell's F-point is the mean
 // of its corners, its two diagonals' pairs summed first; a vertex's V-point the mean of its four
-// cells' F-points, the two diagonally opposite pairs summed first (docs/tiled.md, "The regular
-// masks": the 9-point mask regrouped, fewer operations on lavapipe, the same on this kernel, which
-// is bound by its loads and stores). The F-point of (x, j) is made in the loop of the V-point of
-// (x, j), whose loads it shares; the F-points of row j - 1 are read from `fBelow` (that row's
-// f, made before) where given, else made again.
+// cells' F-points, the two diagonally opposite pairs summed first (docs/tiled.md, "How the
+// kernels sum them": the 9-point mask regrouped, fewer loads and operations). The F-point of
+// (x, j) is made in the loop of the V-point of (x, j), whose loads it shares; the F-points of row
+// j - 1 are read from `fBelow` (that row's f, made before) where given, else made again.
 template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void quincunxRow(const T* __restrict c, std::size_t n, std::size_t j,
                                                const T* __restrict fBelow, T* __restrict v, T* __restrict f) {
@@ -172,6 +171,8 @@ template <std::size_t Block, class T>
     T* const v[3] = {ring, ring + nv, ring + 2 * nv};
     T* const cells[3] = {ring + 3 * nv, ring + 3 * nv + nf, ring + 3 * nv + 2 * nf};
     // Row r's V-points read row r - 1's F-points, made just before it but for the first row.
+    // Forced inline: as a function of its own the lambda is compiled without the variant's
+    // instruction set (its target attribute), which made the kernel 2x slower.
     const auto row = [&](std::size_t r, bool first) __attribute__((always_inline)) {
         quincunxRow<Block>(c, n, r, first ? nullptr : cells[(r - 1) % 3], v[r % 3], cells[r % 3]);
     };
