@@ -466,6 +466,10 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     PerLevelTable leanRows;
     leanRows.controlCount = mesh.faces.vertexCount;
     std::vector<std::uint32_t> drawOf;
+    // Without the per-level table and the face-varying channel, tiles that cover the whole mesh
+    // give the finest faces themselves (placeTiles): refinement then ends on level N - 2.
+    TileFaces tileFaces;
+    bool surfaceFromTiles = false;
     // Room for the lean build's rows of the steps known to make every row (as the per-level
     // table's): the paired step, the steps up to level B, and all of them once level B has no
     // tile. Without it the cow at 7 steps (no tile), built without huge pages, spent over half
@@ -552,9 +556,29 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         }
         if (placesTiles(k)) {
             start = Clock::now();
-            Counts finest = countsAfterStep(countMesh(parent.faces, parent.connectivity), split);
-            if (k < steps) finest = countsAfterStep(finest, splitsBoundary(options.boundary, steps - (out.preprocessed ? 1 : 0)));
-            drawOf = placeTiles(out.tiled, blocks, plan.doubleSteps > 0 ? &parent : nullptr, split, Index(finest.vertices));
+            const Counts middle = countsAfterStep(countMesh(parent.faces, parent.connectivity), split);
+            const Counts finest =
+                k < steps ? countsAfterStep(middle, splitsBoundary(options.boundary, steps - (out.preprocessed ? 1 : 0))) : middle;
+            // Only where every face of level B is a tile's (then every finest face is).
+            const bool facesFromTiles = lean && !uv && plan.doubleSteps > 0 && !blocks.side.empty() &&
+                                        std::find(blocks.covered.begin(), blocks.covered.end(), 0) == blocks.covered.end();
+            drawOf = placeTiles(out.tiled, blocks, plan.doubleSteps > 0 ? &parent : nullptr, split, Index(finest.vertices),
+                                facesFromTiles ? &tileFaces : nullptr);
+            if (facesFromTiles && out.tiled.fallbackBegin == out.tiled.refinedCount && tileFaces.order.size() == finest.faces) {
+                // Every finest point a tile's: no row after level B is needed, and the surface
+                // is the tiles' faces. The rows of the last two steps (none kept) only record the
+                // levels' sizes.
+                appendLeanRows(k, split);
+                leanRows.levels.push_back({std::uint32_t(middle.vertices), std::uint32_t(finest.vertices),
+                                           leanRows.groups.size(), leanRows.groups.size(),
+                                           leanRows.destinations.size(), leanRows.destinations.size()});
+                setTiledSurfaceFromTiles(out.tiled, std::move(tileFaces));
+                surfaceFromTiles = true;
+                out.tiledMs += ms(start);
+                if (options.onLevel) options.onLevel(k, 0), options.onLevel(k + 1, 0);
+                break;
+            }
+            tileFaces = {};
             out.tiledMs += ms(start);
         }
         if (lean) {
@@ -582,7 +606,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
             keepFallbackRows(out.tiled, std::move(leanRows), drawOf);
         else
             keepFallbackRows(out.tiled, out.perLevel, drawOf);
-        orderByWalkAndSetSurface(out.tiled, drawOf, parent.faces, lean);
+        if (!surfaceFromTiles) orderByWalkAndSetSurface(out.tiled, drawOf, parent.faces, lean);
         out.tiledMs += ms(start);
     }
     parent.connectivity = {};

@@ -34,11 +34,22 @@ std::vector<std::uint8_t> baseLabels(const Level& base, const TileBlocks& blocks
 // its destination (docs/tiled.md).
 std::vector<std::uint8_t> childLabels(const Level& parent, bool splitBoundary, const std::vector<std::uint8_t>& labels);
 
+// The finest faces of the tiles' lattices, as refine makes them but over drawing positions:
+// per face its four corners, from the one refine puts first, and its place in refine's face
+// order (4 x the coarse edge whose face of level N - 1 holds the first half-edge of the edge of
+// level N - 1 it is made around, + that half-edge's corner there: placeTiles).
+struct TileFaces {
+    std::vector<Index> corners;        // 4 per face
+    std::vector<std::uint32_t> order;  // per face
+};
+
 // Walks each block's finest lattice on level N - 2 (`coarse`; none needed without blocks) and
 // fills `table`'s tiles, fallbackBegin and canonical (its doubleSteps already set). Returns the
-// drawing position of each of the finestCount finest vertices.
+// drawing position of each of the finestCount finest vertices. With `faces` (and double steps),
+// also the finest faces of the tiles' lattices, tile after tile: where the tiles cover the mesh,
+// the finest level's faces without the topology of levels N - 1 and N.
 std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& blocks, const Level* coarse, bool coarseSplits,
-                                      std::uint32_t finestCount);
+                                      std::uint32_t finestCount, TileFaces* faces = nullptr);
 
 // table.rows from `rows` (levels [0, B) whole; from B on, at least every row the fallback needs):
 // the rows from B on that the fallback needs, the last level's destinations as drawing
@@ -72,6 +83,9 @@ void orderLevelsByWalk(TiledTable& table, std::vector<std::uint32_t> position);
 
 // table.surface: the finest faces over drawing positions, ordered by their first drawn corner.
 void setTiledSurface(TiledTable& table, const Faces& finest, const std::vector<std::uint32_t>& drawOf);
+// The same surface from the tiles' faces (placeTiles) where they cover the finest level (else
+// std::logic_error): the same arrays, the finest faces never made.
+void setTiledSurfaceFromTiles(TiledTable& table, TileFaces&& faces);
 
 // Runs `first` and `second`, on two threads when `together` and the build has two (OpenMP
 // sections; what they run inside on more threads runs on their own one), else one after the

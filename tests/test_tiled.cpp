@@ -738,12 +738,15 @@ void expectSameTable(const TiledTable& a, const TiledTable& b) {
 // fallback can need them, docs/tiled.md) makes the very table the full build copies from the
 // per-level rows: every model (unused and non-manifold vertices, triangles, boundaries), both
 // boundary modes, the paper and shape rules, every tile count, all three side choices (no tiles:
-// the paper rules), 0 to 5 steps.
+// the paper rules), 0 to 5 steps. Where the tiles cover the mesh (the torus) the lean build
+// takes the surface from the tiles' lattices and never makes levels N - 1 and N: the same
+// arrays as the full build's faces sorted (expectSameTable).
 TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
     std::vector<std::string> models = test::allValidModels();
     models.push_back("");  // a 30 x 20 torus
     std::size_t tiles[2][4] = {};  // [boundary][double steps]
     std::size_t fallbackPoints = 0;
+    std::size_t wholeTiled = 0;  // lean builds whose surface is the tiles' own faces (no level N - 1)
     for (const std::string& path : models)
         for (Boundary boundary : {Boundary::Paper, Boundary::Smooth})
             for (Rules rules : {Rules::Paper, Rules::Shape})
@@ -769,10 +772,13 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
                         EXPECT_TRUE(lean.surface.faceVerts.empty());
                         tiles[int(boundary)][lean.tiled.doubleSteps] += lean.tiled.tileCount();
                         if (lean.tiled.tileCount() > 0) fallbackPoints += lean.tiled.refinedCount - lean.tiled.fallbackBegin;
+                        if (lean.tiled.tileCount() > 0 && lean.tiled.fallbackBegin == lean.tiled.refinedCount && lean.uv.perLevel.levels.empty())
+                            ++wholeTiled;
                     }
     for (int boundary = 0; boundary < 2; ++boundary)
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
     EXPECT_GT(fallbackPoints, 0u);  // tiles beside fallback rows, not only all-tile tables
+    EXPECT_GT(wholeTiled, 0u);      // and tables all tiles, whose lean build ends on level N - 2
 }
 
 // Without tiles (TileSides::None, psub play's third tiled candidate on several threads): the plan's
