@@ -605,7 +605,7 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
         const Walker walker{coarse->faces, coarse->connectivity};
         const FinestNames names(*coarse, coarseSplits);
         const std::uint32_t steps = 1u << table.doubleSteps;
-        std::vector<Index> grid, points, cellEdges;
+        std::vector<Index> grid, points, cellEdges, drawn;
         std::size_t first = 0;
         Index* corners = nullptr;
         std::uint32_t* order = nullptr;
@@ -644,12 +644,18 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
                 for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
             table.borderBegin.push_back(table.border.size());
             if (!faces) continue;
+            // The lattice's drawing positions, each read once (drawOf is in canonical order: a
+            // miss a point), for the faces' four corners each.
+            drawn.resize(points.size());
+            for (std::size_t i = 0; i < points.size(); ++i) drawn[i] = drawOf[points[i]];
             const std::uint32_t cells = lattice / 2;
             for (std::uint32_t y = 0; y < cells; ++y)
                 for (std::uint32_t x = 0; x < cells; ++x)
                     appendCellFaces(coarse->connectivity, cellEdges[std::size_t(y) * cells + x],
-                                    [&](std::uint32_t dx, std::uint32_t dy) { return at(2 * x + dx, 2 * y + dy); }, corners,
-                                    order);
+                                    [&](std::uint32_t dx, std::uint32_t dy) {
+                                        return drawn[std::size_t(2 * y + dy) * (lattice + 1) + 2 * x + dx];
+                                    },
+                                    corners, order);
         }
     }
     table.fallbackBegin = next;
