@@ -572,6 +572,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
                 leanRows.levels.push_back({std::uint32_t(middle.vertices), std::uint32_t(finest.vertices),
                                            leanRows.groups.size(), leanRows.groups.size(),
                                            leanRows.destinations.size(), leanRows.destinations.size()});
+                parent = Level{};  // level N - 2: its topology is not needed any more (the peak)
                 setTiledSurfaceFromTiles(out.tiled, std::move(tileFaces));
                 surfaceFromTiles = true;
                 out.tiledMs += ms(start);
