@@ -27,6 +27,7 @@ struct Walker {
     const Faces& faces;
     const Connectivity& c;
     std::vector<std::uint8_t> regularFlags = {};  // regular(v) per vertex, when cached (cacheRegular)
+    bool allQuads = false;  // every face a quad (noteAllQuads): regular(v) need not look at v's faces
     // Per vertex, when cached: the face hops to the nearest vertex that is not regular (kNone
     // where there is none). In a regular region a face hop is one step of the grid's Chebyshev
     // distance, so a block's grid, a square of radius r around its centre vertex, is all
@@ -41,9 +42,16 @@ struct Walker {
     [[gnu::always_inline]] bool regular(Index v) const {
         if (!regularFlags.empty()) return regularFlags[v] != 0;
         if (c.kind[v] != VertexKind::Interior || c.valence[v] != 4) return false;
+        if (allQuads) return true;
         for (Index h : c.outgoingOf(v))
             if (faces.faceSize(c.faceOf[h]) != 4) return false;
         return true;
+    }
+    // For level N - 2, whose lattices are walked once: a scan of the faces in order instead of
+    // every walked vertex's four faces (a miss each: a fifth of placeTiles on the torus).
+    void noteAllQuads() {
+        allQuads = true;
+        for (Index f = 0; f < faces.faceCount() && allQuads; ++f) allQuads = faces.faceSize(f) == 4;
     }
     // For level B, whose blocks are walked once per side the cost model tries.
     void cacheRegular() {
@@ -602,7 +610,8 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
     std::uint32_t next = 0;
     if (!blocks.side.empty()) {
         if (!coarse) throw std::logic_error("placeTiles: tiles without level N - 2");
-        const Walker walker{coarse->faces, coarse->connectivity};
+        Walker walker{coarse->faces, coarse->connectivity};
+        walker.noteAllQuads();
         const FinestNames names(*coarse, coarseSplits);
         const std::uint32_t steps = 1u << table.doubleSteps;
         std::vector<Index> grid, points, cellEdges, drawn;
