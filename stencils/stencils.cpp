@@ -576,7 +576,10 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
                 setTiledSurfaceFromTiles(out.tiled, std::move(tileFaces));
                 surfaceFromTiles = true;
                 out.tiledMs += ms(start);
-                if (options.onLevel) options.onLevel(k, 0), options.onLevel(k + 1, 0);
+                if (options.onLevel) {  // the two steps not taken
+                    options.onLevel(k, 0);
+                    options.onLevel(k + 1, 0);
+                }
                 break;
             }
             tileFaces = {};

@@ -35,9 +35,10 @@ std::vector<std::uint8_t> baseLabels(const Level& base, const TileBlocks& blocks
 std::vector<std::uint8_t> childLabels(const Level& parent, bool splitBoundary, const std::vector<std::uint8_t>& labels);
 
 // The finest faces of the tiles' lattices, as refine makes them but over drawing positions:
-// per face its four corners, from the one refine puts first, and its place in refine's face
-// order (4 x the coarse edge whose face of level N - 1 holds the first half-edge of the edge of
-// level N - 1 it is made around, + that half-edge's corner there: placeTiles).
+// per face its four corners, from the one refine puts first, and a key in refine's face order
+// (the first half-edge of the edge of level N - 2 whose face of level N - 1 holds the first
+// half-edge of the edge of level N - 1 the face is made around, times 4, + that half-edge's
+// corner there: placeTiles, docs/tiled.md).
 struct TileFaces {
     std::vector<Index> corners;        // 4 per face
     std::vector<std::uint32_t> order;  // per face

@@ -772,7 +772,8 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
                         EXPECT_TRUE(lean.surface.faceVerts.empty());
                         tiles[int(boundary)][lean.tiled.doubleSteps] += lean.tiled.tileCount();
                         if (lean.tiled.tileCount() > 0) fallbackPoints += lean.tiled.refinedCount - lean.tiled.fallbackBegin;
-                        if (lean.tiled.tileCount() > 0 && lean.tiled.fallbackBegin == lean.tiled.refinedCount && lean.uv.perLevel.levels.empty())
+                        const TiledTable& t = lean.tiled;
+                        if (t.tileCount() > 0 && t.fallbackBegin == t.refinedCount && lean.uv.perLevel.levels.empty())
                             ++wholeTiled;
                     }
     for (int boundary = 0; boundary < 2; ++boundary)
