@@ -128,7 +128,7 @@ struct RefineOptions {
     int levels = 2;                         // P-S steps after any preprocessing
     Preprocess preprocess = Preprocess::Auto;
     bool factorized = false;                // also build the factorized table
-    std::function<void(int level, double seconds)> onLevel;  // progress, after each level
+    std::function<void(int level, double seconds)> onLevel;  // progress, after each level (0 s: not refined)
     Rules rules = Rules::Paper;             // Robust: beyond the paper (psub/rules.h)
     Boundary boundary = Boundary::Paper;    // Smooth: beyond the paper (psub/topology.h)
     bool tiled = false;                     // also build the tiled form (psub/tiled.h)
