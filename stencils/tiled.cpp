@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <omp.h>
 #include <stdexcept>
 #include <string>
 
@@ -616,58 +617,92 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
         Walker walker{coarse->faces, coarse->connectivity};
         walker.noteAllQuads();
         const FinestNames names(*coarse, coarseSplits);
-        const std::uint32_t steps = 1u << table.doubleSteps;
-        std::vector<Index> grid, points, cellEdges, drawn;
-        std::size_t first = 0;
-        Index* corners = nullptr;
-        std::uint32_t* order = nullptr;
-        if (faces) {  // every face of every lattice
-            std::size_t count = 0;
-            for (std::uint32_t side : blocks.side) count += std::size_t(side * steps) * (side * steps);
-            faces->corners.resize(4 * count);
-            faces->order.resize(count);
-            corners = faces->corners.data(), order = faces->order.data();
+        const std::uint32_t steps = 1u << table.doubleSteps, halo = blocks.halo;
+        const std::size_t tiles = blocks.side.size();
+        // Per tile: its first gathered point and its first face (every face of every lattice).
+        std::vector<std::size_t> gatherAt(tiles + 1, 0), faceAt(tiles + 1, 0);
+        for (std::size_t k = 0; k < tiles; ++k) {
+            const std::size_t g = blocks.side[k] + 2 * halo + 1, lattice = std::size_t(blocks.side[k]) * steps;
+            gatherAt[k + 1] = gatherAt[k] + g * g;
+            faceAt[k + 1] = faceAt[k] + lattice * lattice;
         }
-        for (std::uint32_t side : blocks.side) {
-            const std::uint32_t g = side + 2 * blocks.halo + 1, lattice = side * steps;
-            grid.assign(blocks.gather.begin() + std::ptrdiff_t(first), blocks.gather.begin() + std::ptrdiff_t(first + g * g));
-            first += std::size_t(g) * g;
-            // A block's grid is regular and its vertices distinct on level B, so its lattice is
-            // on level N - 2: the walk cannot fail on a table's own levels.
-            if (!walkLattice(walker, names, grid, g, blocks.halo, steps, lattice, points, faces ? &cellEdges : nullptr))
-                throw std::logic_error("placeTiles: a tile's lattice does not walk on level N - 2");
-            table.side.push_back(side);
-            table.gather.insert(table.gather.end(), grid.begin(), grid.end());
-            table.gatherBegin.push_back(table.gather.size());
-            table.output.push_back(next);
-            const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
-                return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
-            };
-            for (std::uint32_t y = 1; y < lattice; ++y)
-                for (std::uint32_t x = 1; x < lattice; ++x) {
-                    if (at(x, y) != kNone) throw std::logic_error("placeTiles: a tile's inner point is shared");
-                    at(x, y) = next++;
-                }
-            const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
-                if (at(x, y) == kNone) at(x, y) = next++;
-                table.border.push_back(at(x, y));
-            };
-            for (std::uint32_t y = 0; y <= lattice; ++y)
-                for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
-            table.borderBegin.push_back(table.border.size());
+        if (faces) faces->corners.resize(4 * faceAt[tiles]), faces->order.resize(faceAt[tiles]);
+        // The tiles in batches: their lattices walked on the threads, then numbered in turn (the
+        // drawing positions follow the tiles' order: the same numbers as one thread gives), then
+        // their faces made on the threads. The walks and the faces only read level N - 2 and
+        // drawOf (misses, mostly) and write their own tile's arrays; they were three quarters of
+        // placeTiles (perf, the 1M-face torus, whose tiled table took 54-56 ms, now 46-48, on two
+        // threads of the 2-vCPU VM: docs/tiled.md, "The lean build").
+        struct Walked {
+            std::vector<Index> points, cellEdges, drawn;
+        };
+        const int threads = faceAt[tiles] >= 65536 ? omp_get_max_threads() : 1;
+        const std::size_t batch = 4 * std::size_t(threads);
+        std::vector<Walked> walked(batch);
+        const auto latticeOf = [&](std::size_t k) { return blocks.side[k] * steps; };
+        for (std::size_t b = 0; b < tiles; b += batch) {
+            const std::ptrdiff_t end = std::ptrdiff_t(std::min(tiles, b + batch));
+            int failed = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(| : failed)
+            for (std::ptrdiff_t k = std::ptrdiff_t(b); k < end; ++k) {
+                const std::uint32_t g = blocks.side[std::size_t(k)] + 2 * halo + 1;
+                const std::vector<Index> grid(blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k)]),
+                                              blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k) + 1]));
+                Walked& mine = walked[std::size_t(k) - b];
+                // A block's grid is regular and its vertices distinct on level B, so its lattice
+                // is on level N - 2: the walk cannot fail on a table's own levels.
+                if (!walkLattice(walker, names, grid, g, halo, steps, latticeOf(std::size_t(k)), mine.points,
+                                 faces ? &mine.cellEdges : nullptr))
+                    failed = 1;
+            }
+            if (failed) throw std::logic_error("placeTiles: a tile's lattice does not walk on level N - 2");
+            for (std::size_t k = b; k < std::size_t(end); ++k) {
+                const std::uint32_t lattice = latticeOf(k);
+                const std::vector<Index>& points = walked[k - b].points;
+                table.side.push_back(blocks.side[k]);
+                table.gather.insert(table.gather.end(), blocks.gather.begin() + std::ptrdiff_t(gatherAt[k]),
+                                    blocks.gather.begin() + std::ptrdiff_t(gatherAt[k + 1]));
+                table.gatherBegin.push_back(table.gather.size());
+                table.output.push_back(next);
+                const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
+                    return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
+                };
+                for (std::uint32_t y = 1; y < lattice; ++y)
+                    for (std::uint32_t x = 1; x < lattice; ++x) {
+                        if (at(x, y) != kNone) throw std::logic_error("placeTiles: a tile's inner point is shared");
+                        at(x, y) = next++;
+                    }
+                const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
+                    if (at(x, y) == kNone) at(x, y) = next++;
+                    table.border.push_back(at(x, y));
+                };
+                for (std::uint32_t y = 0; y <= lattice; ++y)
+                    for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
+                table.borderBegin.push_back(table.border.size());
+            }
             if (!faces) continue;
-            // The lattice's drawing positions, each read once (drawOf is in canonical order: a
-            // miss a point), for the faces' four corners each.
-            drawn.resize(points.size());
-            for (std::size_t i = 0; i < points.size(); ++i) drawn[i] = drawOf[points[i]];
-            const std::uint32_t cells = lattice / 2;
-            for (std::uint32_t y = 0; y < cells; ++y)
-                for (std::uint32_t x = 0; x < cells; ++x)
-                    appendCellFaces(coarse->connectivity, cellEdges[std::size_t(y) * cells + x],
-                                    [&](std::uint32_t dx, std::uint32_t dy) {
-                                        return drawn[std::size_t(2 * y + dy) * (lattice + 1) + 2 * x + dx];
-                                    },
-                                    corners, order);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+            for (std::ptrdiff_t k = std::ptrdiff_t(b); k < end; ++k) {
+                Walked& mine = walked[std::size_t(k) - b];
+                const std::uint32_t lattice = latticeOf(std::size_t(k)), cells = lattice / 2;
+                // The lattice's drawing positions, for the faces' four corners each: from the
+                // tile's output range and border list, not drawOf (in canonical order, a miss a
+                // point, and written by another thread: on the 16.8M-face torus reading it made the
+                // faces slower on two threads than on one).
+                mine.drawn.resize(mine.points.size());
+                for (std::uint32_t y = 0; y <= lattice; ++y)
+                    for (std::uint32_t x = 0; x <= lattice; ++x)
+                        mine.drawn[std::size_t(y) * (lattice + 1) + x] = table.drawingPosition(std::size_t(k), x, y);
+                Index* corners = faces->corners.data() + 4 * faceAt[std::size_t(k)];
+                std::uint32_t* order = faces->order.data() + faceAt[std::size_t(k)];
+                for (std::uint32_t y = 0; y < cells; ++y)
+                    for (std::uint32_t x = 0; x < cells; ++x)
+                        appendCellFaces(coarse->connectivity, mine.cellEdges[std::size_t(y) * cells + x],
+                                        [&](std::uint32_t dx, std::uint32_t dy) {
+                                            return mine.drawn[std::size_t(2 * y + dy) * (lattice + 1) + 2 * x + dx];
+                                        },
+                                        corners, order);
+            }
         }
     }
     table.fallbackBegin = next;
