@@ -629,29 +629,38 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
         if (faces) faces->corners.resize(4 * faceAt[tiles]), faces->order.resize(faceAt[tiles]);
         // The tiles in batches: their lattices walked on the threads, then numbered in turn (the
         // drawing positions follow the tiles' order: the same numbers as one thread gives), then
-        // their faces made on the threads. The walks and the faces only read level N - 2 and
-        // drawOf (misses, mostly) and write their own tile's arrays; they were three quarters of
-        // placeTiles (perf, the 1M-face torus, whose tiled table took 54-56 ms, now 46-48, on two
-        // threads of the 2-vCPU VM: docs/tiled.md, "The lean build").
+        // their faces made on the threads. The walks and the faces read level N - 2 (misses,
+        // mostly) and the table's numbers of their own tile, and write their own arrays; they
+        // were three quarters of placeTiles (perf, the 1M-face torus, whose tiled table took
+        // 54-56 ms, now 46-48, on two threads of the 2-vCPU VM: docs/tiled.md, "The lean build").
         struct Walked {
-            std::vector<Index> points, cellEdges, drawn;
+            std::vector<Index> grid, points, cellEdges, drawn;
         };
         const int threads = faceAt[tiles] >= 65536 ? omp_get_max_threads() : 1;
         const std::size_t batch = 4 * std::size_t(threads);
-        std::vector<Walked> walked(batch);
         const auto latticeOf = [&](std::size_t k) { return blocks.side[k] * steps; };
+        // Sized for the largest tile here, so that nothing is allocated on the threads (an
+        // exception there would end the program, not reach the caller).
+        const std::size_t largest = *std::max_element(blocks.side.begin(), blocks.side.end());
+        std::vector<Walked> walked(batch);
+        for (Walked& mine : walked) {
+            mine.grid.reserve((largest + 2 * halo + 1) * (largest + 2 * halo + 1));
+            mine.points.reserve((largest * steps + 1) * (largest * steps + 1));
+            mine.drawn.reserve(mine.points.capacity());
+            if (faces) mine.cellEdges.reserve(largest * steps / 2 * (largest * steps / 2));
+        }
         for (std::size_t b = 0; b < tiles; b += batch) {
             const std::ptrdiff_t end = std::ptrdiff_t(std::min(tiles, b + batch));
             int failed = 0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(| : failed)
             for (std::ptrdiff_t k = std::ptrdiff_t(b); k < end; ++k) {
                 const std::uint32_t g = blocks.side[std::size_t(k)] + 2 * halo + 1;
-                const std::vector<Index> grid(blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k)]),
-                                              blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k) + 1]));
                 Walked& mine = walked[std::size_t(k) - b];
+                mine.grid.assign(blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k)]),
+                                 blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k) + 1]));
                 // A block's grid is regular and its vertices distinct on level B, so its lattice
                 // is on level N - 2: the walk cannot fail on a table's own levels.
-                if (!walkLattice(walker, names, grid, g, halo, steps, latticeOf(std::size_t(k)), mine.points,
+                if (!walkLattice(walker, names, mine.grid, g, halo, steps, latticeOf(std::size_t(k)), mine.points,
                                  faces ? &mine.cellEdges : nullptr))
                     failed = 1;
             }
