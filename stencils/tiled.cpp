@@ -12,6 +12,7 @@
 #include <cmath>
 #include <limits>
 #include <omp.h>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -604,6 +605,52 @@ void appendCellFaces(const Connectivity& c, Index e0, At&& at, Index*& corners, 
     }
 }
 
+// The drawing positions of the next tile of `table` (its lattice's finest points `points`, row
+// by row, and its gathered grid `grid`): its inner points next, next + 1, ... row by row, then
+// those of its ring that no earlier tile numbered; its entries appended to the table.
+void numberTile(TiledTable& table, std::uint32_t side, std::uint32_t lattice, std::span<const Index> grid,
+                const std::vector<Index>& points, std::vector<std::uint32_t>& drawOf, std::uint32_t& next) {
+    table.side.push_back(side);
+    table.gather.insert(table.gather.end(), grid.begin(), grid.end());
+    table.gatherBegin.push_back(table.gather.size());
+    table.output.push_back(next);
+    const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
+        return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
+    };
+    for (std::uint32_t y = 1; y < lattice; ++y)
+        for (std::uint32_t x = 1; x < lattice; ++x) {
+            if (at(x, y) != kNone) throw std::logic_error("placeTiles: a tile's inner point is shared");
+            at(x, y) = next++;
+        }
+    const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
+        if (at(x, y) == kNone) at(x, y) = next++;
+        table.border.push_back(at(x, y));
+    };
+    for (std::uint32_t y = 0; y <= lattice; ++y)
+        for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
+    table.borderBegin.push_back(table.border.size());
+}
+
+// The finest faces of tile k's lattice, whose cells' +x half-edges on level N - 2 are
+// `cellEdges` (appendCellFaces, cell by cell, row by row), at `corners` and `order`. The
+// lattice's drawing positions come from the tile's output range and border list, not drawOf
+// (in canonical order, a miss a point, and written by another thread: read from there, the
+// 16.8M-face torus's faces took longer on two threads than on one); `drawn` holds them.
+void appendTileFaces(const TiledTable& table, const Connectivity& coarse, std::size_t k,
+                     const std::vector<Index>& cellEdges, std::vector<Index>& drawn, Index* corners, std::uint32_t* order) {
+    const std::uint32_t lattice = table.lattice(k), cells = lattice / 2;
+    drawn.resize(std::size_t(lattice + 1) * (lattice + 1));
+    for (std::uint32_t y = 0; y <= lattice; ++y)
+        for (std::uint32_t x = 0; x <= lattice; ++x) drawn[std::size_t(y) * (lattice + 1) + x] = table.drawingPosition(k, x, y);
+    for (std::uint32_t y = 0; y < cells; ++y)
+        for (std::uint32_t x = 0; x < cells; ++x)
+            appendCellFaces(coarse, cellEdges[std::size_t(y) * cells + x],
+                            [&](std::uint32_t dx, std::uint32_t dy) {
+                                return drawn[std::size_t(2 * y + dy) * (lattice + 1) + 2 * x + dx];
+                            },
+                            corners, order);
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& blocks, const Level* coarse, bool coarseSplits,
@@ -665,52 +712,16 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
                     failed = 1;
             }
             if (failed) throw std::logic_error("placeTiles: a tile's lattice does not walk on level N - 2");
-            for (std::size_t k = b; k < std::size_t(end); ++k) {
-                const std::uint32_t lattice = latticeOf(k);
-                const std::vector<Index>& points = walked[k - b].points;
-                table.side.push_back(blocks.side[k]);
-                table.gather.insert(table.gather.end(), blocks.gather.begin() + std::ptrdiff_t(gatherAt[k]),
-                                    blocks.gather.begin() + std::ptrdiff_t(gatherAt[k + 1]));
-                table.gatherBegin.push_back(table.gather.size());
-                table.output.push_back(next);
-                const auto at = [&](std::uint32_t x, std::uint32_t y) -> std::uint32_t& {
-                    return drawOf[points[std::size_t(y) * (lattice + 1) + x]];
-                };
-                for (std::uint32_t y = 1; y < lattice; ++y)
-                    for (std::uint32_t x = 1; x < lattice; ++x) {
-                        if (at(x, y) != kNone) throw std::logic_error("placeTiles: a tile's inner point is shared");
-                        at(x, y) = next++;
-                    }
-                const auto borderPoint = [&](std::uint32_t x, std::uint32_t y) {
-                    if (at(x, y) == kNone) at(x, y) = next++;
-                    table.border.push_back(at(x, y));
-                };
-                for (std::uint32_t y = 0; y <= lattice; ++y)
-                    for (std::uint32_t x = 0; x <= lattice; x += (y == 0 || y == lattice) ? 1 : lattice) borderPoint(x, y);
-                table.borderBegin.push_back(table.border.size());
-            }
+            for (std::size_t k = b; k < std::size_t(end); ++k)
+                numberTile(table, blocks.side[k], latticeOf(k),
+                           std::span<const Index>(blocks.gather.data() + gatherAt[k], gatherAt[k + 1] - gatherAt[k]),
+                           walked[k - b].points, drawOf, next);
             if (!faces) continue;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
             for (std::ptrdiff_t k = std::ptrdiff_t(b); k < end; ++k) {
                 Walked& mine = walked[std::size_t(k) - b];
-                const std::uint32_t lattice = latticeOf(std::size_t(k)), cells = lattice / 2;
-                // The lattice's drawing positions, for the faces' four corners each: from the
-                // tile's output range and border list, not drawOf (in canonical order, a miss a
-                // point, and written by another thread: on the 16.8M-face torus reading it made the
-                // faces slower on two threads than on one).
-                mine.drawn.resize(mine.points.size());
-                for (std::uint32_t y = 0; y <= lattice; ++y)
-                    for (std::uint32_t x = 0; x <= lattice; ++x)
-                        mine.drawn[std::size_t(y) * (lattice + 1) + x] = table.drawingPosition(std::size_t(k), x, y);
-                Index* corners = faces->corners.data() + 4 * faceAt[std::size_t(k)];
-                std::uint32_t* order = faces->order.data() + faceAt[std::size_t(k)];
-                for (std::uint32_t y = 0; y < cells; ++y)
-                    for (std::uint32_t x = 0; x < cells; ++x)
-                        appendCellFaces(coarse->connectivity, mine.cellEdges[std::size_t(y) * cells + x],
-                                        [&](std::uint32_t dx, std::uint32_t dy) {
-                                            return mine.drawn[std::size_t(2 * y + dy) * (lattice + 1) + 2 * x + dx];
-                                        },
-                                        corners, order);
+                appendTileFaces(table, coarse->connectivity, std::size_t(k), mine.cellEdges, mine.drawn,
+                                faces->corners.data() + 4 * faceAt[std::size_t(k)], faces->order.data() + faceAt[std::size_t(k)]);
             }
         }
     }
