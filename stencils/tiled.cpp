@@ -281,7 +281,7 @@ struct FinestNames {
 // (walker w), whose (L/2+1)^2 lattice points keep their index on the finest level, their
 // edges' and cells' middles named by `names`: a quarter of the finest walk's steps, on a level
 // a quarter of its size.
-bool walkLattice(const Walker& w, const FinestNames& names, const std::vector<Index>& grid, std::uint32_t g,
+bool walkLattice(const Walker& w, const FinestNames& names, std::span<const Index> grid, std::uint32_t g,
                  std::uint32_t halo, std::uint32_t steps, std::uint32_t lattice, std::vector<Index>& points,
                  std::vector<Index>* cellEdges = nullptr) {
     const Index v00 = grid[std::size_t(halo) * g + halo];
@@ -681,17 +681,19 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
         // were three quarters of placeTiles (perf, the 1M-face torus, whose tiled table took
         // 54-56 ms, now 46-48, on two threads of the 2-vCPU VM: docs/tiled.md, "The lean build").
         struct Walked {
-            std::vector<Index> grid, points, cellEdges, drawn;
+            std::vector<Index> points, cellEdges, drawn;
         };
         const int threads = faceAt[tiles] >= 65536 ? omp_get_max_threads() : 1;
         const std::size_t batch = 4 * std::size_t(threads);
         const auto latticeOf = [&](std::size_t k) { return blocks.side[k] * steps; };
+        const auto gridOf = [&](std::size_t k) {
+            return std::span<const Index>(blocks.gather.data() + gatherAt[k], gatherAt[k + 1] - gatherAt[k]);
+        };
         // Sized for the largest tile here, so that nothing is allocated on the threads (an
         // exception there would end the program, not reach the caller).
         const std::size_t largest = *std::max_element(blocks.side.begin(), blocks.side.end());
         std::vector<Walked> walked(batch);
         for (Walked& mine : walked) {
-            mine.grid.reserve((largest + 2 * halo + 1) * (largest + 2 * halo + 1));
             mine.points.reserve((largest * steps + 1) * (largest * steps + 1));
             mine.drawn.reserve(mine.points.capacity());
             if (faces) mine.cellEdges.reserve(largest * steps / 2 * (largest * steps / 2));
@@ -703,19 +705,15 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
             for (std::ptrdiff_t k = std::ptrdiff_t(b); k < end; ++k) {
                 const std::uint32_t g = blocks.side[std::size_t(k)] + 2 * halo + 1;
                 Walked& mine = walked[std::size_t(k) - b];
-                mine.grid.assign(blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k)]),
-                                 blocks.gather.begin() + std::ptrdiff_t(gatherAt[std::size_t(k) + 1]));
                 // A block's grid is regular and its vertices distinct on level B, so its lattice
                 // is on level N - 2: the walk cannot fail on a table's own levels.
-                if (!walkLattice(walker, names, mine.grid, g, halo, steps, latticeOf(std::size_t(k)), mine.points,
-                                 faces ? &mine.cellEdges : nullptr))
+                if (!walkLattice(walker, names, gridOf(std::size_t(k)), g, halo, steps, latticeOf(std::size_t(k)),
+                                 mine.points, faces ? &mine.cellEdges : nullptr))
                     failed = 1;
             }
             if (failed) throw std::logic_error("placeTiles: a tile's lattice does not walk on level N - 2");
             for (std::size_t k = b; k < std::size_t(end); ++k)
-                numberTile(table, blocks.side[k], latticeOf(k),
-                           std::span<const Index>(blocks.gather.data() + gatherAt[k], gatherAt[k + 1] - gatherAt[k]),
-                           walked[k - b].points, drawOf, next);
+                numberTile(table, blocks.side[k], latticeOf(k), gridOf(k), walked[k - b].points, drawOf, next);
             if (!faces) continue;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
             for (std::ptrdiff_t k = std::ptrdiff_t(b); k < end; ++k) {

@@ -841,6 +841,29 @@ TEST(Tiled, TheTableIsTheSameOnOneThreadAndTwo) {
         }
 }
 
+// placeTiles runs on the threads from 65,536 lattice faces, in batches of four tiles a thread:
+// a torus the tiles cover whole, past that size and with more tiles than one batch, built lean
+// on two threads (its lattices walked, its finest faces made on both) is the full build's table
+// (whose faces refine makes) and the lean build's on one thread.
+TEST(Tiled, TheLeanBuildOnTwoThreadsMakesTheFullBuildsTable) {
+    const int before = omp_get_max_threads();
+    const test::Loaded torus = loadTorus(96, 96);
+    RefineOptions options = test::tiledOptions(4, Boundary::Smooth);
+    omp_set_num_threads(2);
+    const Refinement full = refine(torus.mesh, torus.checked.connectivity, options);
+    options.perLevel = false;
+    const Refinement lean = refine(torus.mesh, torus.checked.connectivity, options);
+    omp_set_num_threads(1);
+    const Refinement leanOnOne = refine(torus.mesh, torus.checked.connectivity, options);
+    omp_set_num_threads(before);
+    const TiledTable& t = lean.tiled;
+    EXPECT_GE(t.surface.faceOffsets.size() - 1, 65536u);
+    EXPECT_GT(t.tileCount(), 8u);
+    EXPECT_EQ(t.fallbackBegin, t.refinedCount);  // every point a tile's: the faces are the tiles'
+    expectSameTable(lean.tiled, full.tiled);
+    expectSameTable(leanOnOne.tiled, full.tiled);
+}
+
 // Without the per-level table only the tiled form can be built.
 TEST(Tiled, OnlyTheTiledFormIsBuiltWithoutThePerLevelTable) {
     const test::Loaded torus = loadTorus(12, 12);
