@@ -1,6 +1,6 @@
 // The tiled form's tile kernel: a tile's gathered level-B grid refined 2t P-S steps with the
 // regular masks over implicit grids (one value per vertex at a time, the quincunx level a ring
-// of three rows; the last step row pair by row pair across the values, only over the tile's
+// of four rows; the last step row pair by row pair across the values, only over the tile's
 // lattice), each finished lattice row written at once (inner points with streaming stores)
 // and, on request, its inner points' unit normals from the lattice in cache (which points and
 // faces those are: tileNormalSets, for both evaluators). Sums pair
@@ -26,6 +26,20 @@ namespace {
 
 // Grid sizes of a tile whose gathered grid is g x g: each double step maps n to 2n - 9.
 std::uint32_t nextSize(std::uint32_t n) { return 2 * n - 9; }
+
+// Rows laid out on 64-byte lines (kLineFloats floats): on this project's AMD EPYC a 64-byte load
+// that crosses two lines takes as long as two loads (bench/README.md, "Session 47").
+constexpr std::size_t kLineFloats = 16;
+std::size_t wholeLines(std::size_t n) { return (n + kLineFloats - 1) / kLineFloats * kLineFloats; }
+// A ring of quincunx rows (rowPairBody) for grids of side at most n: eight rows, each of whole
+// lines with two lines of room past its end (the AVX-512 loops load the line after their last
+// point), and room to move them onto a line.
+std::size_t ringStride(std::size_t n) { return wholeLines(n) + 2 * kLineFloats; }
+std::size_t quincunxRingSize(std::size_t n) { return 8 * ringStride(n) + 2 * kLineFloats; }
+// The finest lattice's planes (evaluateTile), one after the other: rows of whole lines, and room
+// to move them so that each row's second point starts a line (interleave3 reads from there).
+std::size_t latticePlane() { return wholeLines(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1); }
+constexpr std::size_t kLatticeRoom = 2 * kLineFloats;
 
 // GCC's "no loop-carried dependence": the loops below write no row they read; without it GCC
 // does not vectorise them (alias checks), 2x slower. Other compilers go without.
@@ -65,6 +79,97 @@ template <std::size_t Block, class Point>
     for (std::size_t b = 0; b < Block; ++b) point(count - Block + b);
 }
 
+// The two loops that take most of the kernel's time, for floats with AVX-512 (its variant's
+// blocks of 16; tileKernelInstructions): quincunxRow's (with the row below's F-points) and
+// fineRows' two-row loop. Each row they read is loaded once a block, as the vector of the block
+// after the previous one's, and its neighbours at i - 1, i + 1, i + 2 are shifted in from those
+// two vectors (valignd) instead of loaded again (loads 8 -> 3 a block in the quincunx loop, 12
+// -> 6 in the fine loop); the fine loop's rows start a 64-byte line at its first block
+// (rowPairBody), so its loads are whole lines; and the F-point left of each point (quincunx) and
+// the diamond left of each point (fine) are the block's own shifted by one lane. The same
+// operations on the same values as the generic loops (their lambdas' sums, pair by pair), so
+// the same bits (Tiled.EveryInstructionSetGivesTheSameBits). Each returns how many steps it
+// made (whole blocks: the rest is the generic loop's). bench/README.md, "Session 47".
+#if defined(__x86_64__) && defined(__GNUC__)
+#define PSUB_TILE_LOOPS_AVX512 1
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"  // GCC 12 on _mm512_alignr_epi32's unset source
+// The 16 values from lane K of `here` on, continued into `next`.
+template <int K>
+__attribute__((target("avx512f"), always_inline)) inline __m512 onFrom(__m512 here, __m512 next) {
+    return _mm512_castsi512_ps(_mm512_alignr_epi32(_mm512_castps_si512(next), _mm512_castps_si512(here), K));
+}
+// 1/4 ((a + b) + (c + d)), as the generic loops' means.
+__attribute__((target("avx512f"), always_inline)) inline __m512 meanOf(__m512 a, __m512 b, __m512 c, __m512 d) {
+    return _mm512_mul_ps(_mm512_set1_ps(0.25f), _mm512_add_ps(_mm512_add_ps(a, b), _mm512_add_ps(c, d)));
+}
+
+// quincunxRow's loop with fBelow, x from 1 on.
+__attribute__((target("avx512f"))) std::size_t quincunxRowAvx512(const float* __restrict mid, const float* __restrict up,
+                                                                 const float* __restrict fBelow, std::size_t count,
+                                                                 float* __restrict v, float* __restrict f) {
+    const std::size_t blocks = count / 16;
+    if (blocks == 0) return 0;
+    // Each vector holds x - 1 .. x + 14: mid, up and fBelow's, and F(x - 1, j) in lane 15.
+    __m512 mid0 = _mm512_loadu_ps(mid), up0 = _mm512_loadu_ps(up), below0 = _mm512_loadu_ps(fBelow);
+    __m512 hereBefore = _mm512_set1_ps(f[0]);
+    for (std::size_t x = 1; x < 16 * blocks + 1; x += 16) {
+        const __m512 mid1 = _mm512_loadu_ps(mid + x + 15), up1 = _mm512_loadu_ps(up + x + 15),
+                     below1 = _mm512_loadu_ps(fBelow + x + 15);
+        const __m512 midX = onFrom<1>(mid0, mid1), upX = onFrom<1>(up0, up1);
+        const __m512 here = meanOf(midX, onFrom<2>(up0, up1), onFrom<2>(mid0, mid1), upX);  // F(x, j)
+        const __m512 left = onFrom<15>(hereBefore, here);                                    // F(x - 1, j)
+        _mm512_storeu_ps(v + x - 1, meanOf(below0, here, onFrom<1>(below0, below1), left));
+        _mm512_storeu_ps(f + x, here);
+        hereBefore = here;
+        mid0 = mid1, up0 = up1, below0 = below1;
+    }
+    return 16 * blocks;
+}
+
+// fineRows' two-row loop (rows q and q + 1), i from i0 on; the rows' value i0 - 1 starts a line.
+__attribute__((target("avx512f"))) std::size_t fineRowsAvx512(const float* __restrict v0, const float* __restrict vm,
+                                                              const float* __restrict v1, const float* __restrict f0,
+                                                              const float* __restrict fm, const float* __restrict fp,
+                                                              std::size_t i0, std::size_t count, float* __restrict out,
+                                                              float* __restrict next) {
+    const std::size_t blocks = count / 16;
+    if (blocks == 0) return 0;
+    // Lane l of the lower and upper halves of a row pair: a block's even points then odd ones.
+    const __m512i lower = _mm512_set_epi32(23, 7, 22, 6, 21, 5, 20, 4, 19, 3, 18, 2, 17, 1, 16, 0);
+    const __m512i upper = _mm512_set_epi32(31, 15, 30, 14, 29, 13, 28, 12, 27, 11, 26, 10, 25, 9, 24, 8);
+    // Each vector holds i - 1 .. i + 14 of V(j), V(j + 1), F(j), F(j - 1), F(j + 1).
+    __m512 v00 = _mm512_load_ps(v0 + i0 - 1), v10 = _mm512_load_ps(v1 + i0 - 1), f00 = _mm512_load_ps(f0 + i0 - 1),
+           fm0 = _mm512_load_ps(fm + i0 - 1), fp0 = _mm512_load_ps(fp + i0 - 1);
+    // The diamond across x from V(i0 - 1, j), in lane 15.
+    __m512 acrossXBefore = _mm512_set1_ps(0.25f * ((v0[i0 - 2] + v0[i0 - 1]) + (fm[i0 - 1] + f0[i0 - 1])));
+    for (std::size_t i = i0; i < i0 + 16 * blocks; i += 16) {
+        const __m512 v01 = _mm512_load_ps(v0 + i + 15), v11 = _mm512_load_ps(v1 + i + 15),
+                     f01 = _mm512_load_ps(f0 + i + 15), fm1 = _mm512_load_ps(fm + i + 15),
+                     fp1 = _mm512_load_ps(fp + i + 15), vmI = _mm512_load_ps(vm + i - 1);
+        const __m512 v0I = onFrom<1>(v00, v01), v1I = onFrom<1>(v10, v11), f0I = onFrom<1>(f00, f01),
+                     fmI = onFrom<1>(fm0, fm1);
+        // fineRows' lambdas' diamonds: acrossX(i), acrossY(i), left = acrossX(i - 1), below, right, above.
+        const __m512 acrossX = meanOf(v00, v0I, fmI, f0I), acrossY = meanOf(v00, v10, f00, f0I);
+        const __m512 left = onFrom<15>(acrossXBefore, acrossX), below = meanOf(vmI, v00, fm0, fmI);
+        const __m512 right = meanOf(v0I, v1I, f0I, onFrom<2>(f00, f01));
+        const __m512 above = meanOf(v10, v1I, f0I, onFrom<1>(fp0, fp1));
+        const __m512 vertexOfV = meanOf(left, acrossX, below, acrossY);
+        const __m512 vertexOfF = meanOf(acrossY, right, acrossX, above);
+        float* o = out + 2 * (i - i0);
+        float* n = next + 2 * (i - i0);
+        _mm512_storeu_ps(o, _mm512_permutex2var_ps(vertexOfV, lower, acrossX));
+        _mm512_storeu_ps(o + 16, _mm512_permutex2var_ps(vertexOfV, upper, acrossX));
+        _mm512_storeu_ps(n, _mm512_permutex2var_ps(acrossY, lower, vertexOfF));
+        _mm512_storeu_ps(n + 16, _mm512_permutex2var_ps(acrossY, upper, vertexOfF));
+        acrossXBefore = acrossX;
+        v00 = v01, v10 = v11, f00 = f01, fm0 = fm1, fp0 = fp1;
+    }
+    return 16 * blocks;
+}
+#pragma GCC diagnostic pop
+#endif
+
 // Row j (1 <= j <= n - 2) of the quincunx level of the n x n grid `c` (spacing 1): v, the
 // V-points of c's inner vertices (x, j), v[x - 1] for x = 1 .. n - 2, and f, the F-points of
 // the cells whose first corner is (x, j), f[x] for x = 0 .. n - 2. A cell's F-point is the mean
@@ -82,8 +187,13 @@ template <std::size_t Block, class T>
     const T* up = c + (j + 1) * n;
     f[0] = quarter * ((mid[0] + up[1]) + (mid[1] + up[0]));
     if (fBelow) {
-        inBlocks<Block>(n - 2, [&](std::size_t a) __attribute__((always_inline)) {
-            const std::size_t x = a + 1;
+        std::size_t done = 0;  // steps made by the AVX-512 loop; the rest in (overlapping) blocks below
+#if defined(PSUB_TILE_LOOPS_AVX512)
+        if constexpr (Block == 16 && std::is_same_v<T, float>) done = quincunxRowAvx512(mid, up, fBelow, n - 2, v, f);
+#endif
+        const std::size_t first = done == 0 || done == n - 2 ? done : n - 2 - Block;  // n - 2 >= Block if done > 0
+        inBlocks<Block>(n - 2 - first, [&](std::size_t b) __attribute__((always_inline)) {
+            const std::size_t x = b + first + 1;
             const T here = quarter * ((mid[x] + up[x + 1]) + (mid[x + 1] + up[x]));      // F(x, j)
             const T left = quarter * ((mid[x - 1] + up[x]) + (mid[x] + up[x - 1]));      // F(x - 1, j)
             v[x - 1] = quarter * ((fBelow[x - 1] + here) + (fBelow[x] + left));
@@ -144,7 +254,13 @@ template <std::size_t Block, class T>
         out[2 * count] = vertexOfV(count + i0);
         return;
     }
-    inBlocks<Block>(count, [&](std::size_t a) __attribute__((always_inline)) {
+    std::size_t done = 0;  // steps made by the AVX-512 loop; the rest in (overlapping) blocks below
+#if defined(PSUB_TILE_LOOPS_AVX512)
+    if constexpr (Block == 16 && std::is_same_v<T, float>) done = fineRowsAvx512(v0, vm, v1, f0, fm, fp, i0, count, out, next);
+#endif
+    const std::size_t first = done == 0 || done == count ? done : count - Block;  // count >= Block where done > 0
+    inBlocks<Block>(count - first, [&](std::size_t b) __attribute__((always_inline)) {
+        const std::size_t a = b + first;
         out[2 * a] = vertexOfV(a + i0);
         out[2 * a + 1] = acrossX(a + i0);
         next[2 * a] = acrossY(a + i0);
@@ -157,34 +273,44 @@ template <std::size_t Block, class T>
 // Fine rows q and (unless q is the last, from + 2 count) q + 1 of a double step of one value
 // per vertex: the n x n grid `c` (spacing 1) -> the fine grid of spacing 1/2 (side 2n - 9, its
 // point (0, 0) at c's (2, 2)), only its points (p, q) with p, q in [from, from + 2 count]
-// (`from` even), row q written to `out` (rows of 2 count + 1 values; row q + 1 after it). Fine
+// (`from` even), row q written to `out` (2 count + 1 values; row q + 1 `outStride` after it). Fine
 // point (p, q) lies at c's ((p + 4) / 2, (q + 4) / 2). The quincunx rows j - 1, j, j + 1 they
-// read (j = q / 2 + 2) are made as needed into `ring` (3 (2n - 3) values: three rows of V- and
-// of F-points, row j in slot j mod 3), so the quincunx level never leaves the first-level
+// read (j = q / 2 + 2) are made as needed into `ring` (quincunxRingSize(n) values: four rows of V-
+// and of F-points, row j in slot j mod 4), so the quincunx level never leaves the first-level
 // cache (as whole grids it took 2 x 66 KB at the largest tiles): call for q = from, from + 2,
 // ... in turn, with the same ring.
 template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void rowPairBody(const T* __restrict c, std::size_t n, std::size_t from,
                                                std::size_t count, std::size_t q, T* __restrict out,
-                                               T* __restrict ring) {
-    const std::size_t nv = n - 2, nf = n - 1, width = 2 * count + 1, i0 = from / 2 + 2, j = q / 2 + 2;
-    T* const v[3] = {ring, ring + nv, ring + 2 * nv};
-    T* const cells[3] = {ring + 3 * nv, ring + 3 * nv + nf, ring + 3 * nv + 2 * nf};
+                                               std::size_t outStride, T* __restrict ring) {
+    const std::size_t i0 = from / 2 + 2, j = q / 2 + 2;
+    // Four rows of V- and four of F-points (row r in slot r mod 4), each of ringStride(n) values,
+    // placed so that every row's value i0 - 1 (the left V-point of the pass's first fine point)
+    // starts a 64-byte line, where the AVX-512 fine loop loads whole lines.
+    const std::size_t stride = ringStride(n);
+    const std::uintptr_t address = reinterpret_cast<std::uintptr_t>(ring);
+    T* const onLine = ring + ((64 - address % 64) % 64) / sizeof(T);
+    T* const first = onLine + (kLineFloats - (i0 - 1) % kLineFloats) % kLineFloats;
+    T* const v[4] = {first, first + stride, first + 2 * stride, first + 3 * stride};
+    T* const cells[4] = {first + 4 * stride, first + 5 * stride, first + 6 * stride, first + 7 * stride};
     // Row r's V-points read row r - 1's F-points, made just before it but for the first row.
     // Forced inline: as a function of its own the lambda is compiled without the variant's
     // instruction set (its target attribute), which made the kernel 2x slower.
-    const auto row = [&](std::size_t r, bool first) __attribute__((always_inline)) {
-        quincunxRow<Block>(c, n, r, first ? nullptr : cells[(r - 1) % 3], v[r % 3], cells[r % 3]);
+    const auto row = [&](std::size_t r, bool firstRow) __attribute__((always_inline)) {
+        quincunxRow<Block>(c, n, r, firstRow ? nullptr : cells[(r - 1) % 4], v[r % 4], cells[r % 4]);
     };
+    // Rows j - 1 .. j + 1 are read; row j + 2, the next pass's, is made a pass ahead, so that no
+    // row is read just after its stores (3-4% of the kernel, bench/README.md "Session 47").
+    const bool last = q == from + 2 * count;
     if (q == from) {
         row(j - 1, true);
         row(j, false);
+        row(j + 1, false);
     }
-    row(j + 1, false);
+    if (!last) row(j + 2, false);
     // The last row, even, alone (its F(j + 1) row is not read: fp = f0).
-    const bool last = q == from + 2 * count;
-    fineRows<Block>(v[j % 3], v[(j - 1) % 3], v[(j + 1) % 3], cells[j % 3], cells[(j - 1) % 3],
-                    last ? cells[j % 3] : cells[(j + 1) % 3], i0, count, out, last ? nullptr : out + width);
+    fineRows<Block>(v[j % 4], v[(j - 1) % 4], v[(j + 1) % 4], cells[j % 4], cells[(j - 1) % 4],
+                    last ? cells[j % 4] : cells[(j + 1) % 4], i0, count, out, last ? nullptr : out + outStride);
 }
 
 // The whole double step (rowPairBody's points), into `f`.
@@ -192,7 +318,7 @@ template <std::size_t Block, class T>
 [[gnu::always_inline]] inline void doubleStepBody(const T* __restrict c, std::size_t n, std::size_t from,
                                                   std::size_t count, T* __restrict f, T* __restrict ring) {
     for (std::size_t q = from; q <= from + 2 * count; q += 2)
-        rowPairBody<Block>(c, n, from, count, q, f + (q - from) * (2 * count + 1), ring);
+        rowPairBody<Block>(c, n, from, count, q, f + (q - from) * (2 * count + 1), 2 * count + 1, ring);
 }
 
 // Three planes of `count` values each -> count xyz triples.
@@ -286,7 +412,8 @@ std::size_t baselineStreamCopy(const T* from, std::size_t done, std::size_t coun
 template <class T>
 struct TileSteps {
     void (*doubleStep)(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f, T* ring);
-    void (*rowPair)(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q, T* out, T* ring);
+    void (*rowPair)(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q, T* out,
+                    std::size_t outStride, T* ring);
     void (*quadNormals)(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx, T* ny, T* nz);
     void (*vertexNormals)(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny, T* nz);
     void (*interleave3)(const T* x, const T* y, const T* z, std::size_t count, T* out);
@@ -306,8 +433,8 @@ constexpr std::size_t kBlockSteps = Bytes == 0 ? 0 : std::max<std::size_t>(8, By
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##RowPair(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q,         \
-                              T* out, T* ring) {                                                                     \
-        rowPairBody<kBlockSteps<BYTES, T>>(c, n, from, count, q, out, ring);                                         \
+                              T* out, std::size_t outStride, T* ring) {                                              \
+        rowPairBody<kBlockSteps<BYTES, T>>(c, n, from, count, q, out, outStride, ring);                              \
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,        \
@@ -402,7 +529,7 @@ bool setTileKernelInstructions(std::string_view name) {
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
     const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
-    return (2 + 2 * std::size_t(width)) * n * n + 6 * std::size_t(width) * n + std::size_t(width) * side * side +
+    return (2 + 2 * std::size_t(width)) * n * n + std::size_t(width) * quincunxRingSize(n) + std::size_t(width) * latticePlane() + kLatticeRoom +
            packedRingSize(width) + packedRingSize(3) + 9 * side;
 }
 
@@ -417,12 +544,12 @@ template <class T>
 void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::uint32_t width, T* refined,
                   const TileNormals<T>& normals, T* scratch, T* lattice) {
     const std::size_t largest = largestGrid(table), area = largest * largest,
-                      plane = std::size_t(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1);
+                      plane = latticePlane();
     T *a = scratch, *b = scratch + area, *beforeLast = scratch + 2 * area;
-    T* quincunxRows = beforeLast + width * area;    // 6 largest values per value
-    T* inputs = quincunxRows + 6 * width * largest;  // the gathered grid of each value
+    T* quincunxRows = beforeLast + width * area;    // quincunxRingSize(largest) values per value
+    T* inputs = quincunxRows + width * quincunxRingSize(largest);  // the gathered grid of each value
     T* finals = inputs + width * area;       // the finest lattice of each value
-    T* packed = finals + width * plane;      // the inner points, `width` values each (a ring)
+    T* packed = finals + width * plane + kLatticeRoom;  // the inner points, `width` values each (a ring)
     T* packedNormals = packed + packedRingSize(width);  // the inner points' normals (a ring)
     T* quads = packedNormals + packedRingSize(3);  // two rows of quad normals, 3 planes each
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
@@ -451,6 +578,11 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     // The lattice's (0, 0) in the finest grid: 2^t (halo - 4) + 4 (see docs/tiled.md); only the
     // last step's (L + 1)^2 lattice points are computed.
     const std::size_t r0 = (std::size_t(table.halo) << t) + 4 - (std::size_t(4) << t), side = L + 1;
+    // The lattice's rows, `rowStride` apart, each row's point 1 (its first inner point, where
+    // interleave3 reads) at a line's start: 4-5% of the kernel (bench/README.md, "Session 47").
+    const std::size_t rowStride = wholeLines(side);
+    const std::uintptr_t address = reinterpret_cast<std::uintptr_t>(finals);
+    finals += ((64 - address % 64) % 64) / sizeof(T) + (kLineFloats - 1);
     std::size_t n = g;  // the grid's side before the last double step
     if (t > 1) {
         for (std::uint32_t c = 0; c < width; ++c) {
@@ -464,7 +596,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         for (std::uint32_t s = 0; s + 1 < t; ++s) n = nextSize(std::uint32_t(n));
     }
     const T* lastInputs = t > 1 ? beforeLast : inputs;
-    const auto at = [&](std::uint32_t c, std::uint32_t y, std::uint32_t x) { return finals[c * plane + y * side + x]; };
+    const auto at = [&](std::uint32_t c, std::uint32_t y, std::uint32_t x) { return finals[c * plane + y * rowStride + x]; };
     const std::uint32_t begin = table.output[k];
     const std::uint32_t end = k + 1 < table.tileCount() ? table.output[k + 1] : table.fallbackBegin;
     T* const destination = lattice ? nullptr : refined + std::size_t(begin) * width;
@@ -507,8 +639,8 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         for (; quadRow <= last; ++quadRow) {
             const std::uint32_t r = quadRow;
             T* hi = rows[r % 2];
-            const std::size_t at0 = std::size_t(r) * side;
-            quadNormals(finals + at0, finals + plane + at0, finals + 2 * plane + at0, side, L, hi, hi + side,
+            const std::size_t at0 = std::size_t(r) * rowStride;
+            quadNormals(finals + at0, finals + plane + at0, finals + 2 * plane + at0, rowStride, L, hi, hi + side,
                         hi + 2 * side);
             toFaces(hi, r);
             if (r == 0) continue;
@@ -520,12 +652,12 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     };
     for (std::uint32_t y = 0; y <= L; y += 2) {  // lattice rows y and y + 1 (fine rows r0 + y, ...)
         for (std::uint32_t c = 0; c < width; ++c)
-            rowPair(lastInputs + c * area, n, r0, L / 2, r0 + y, finals + c * plane + std::size_t(y) * side,
-                    quincunxRows + 6 * c * largest);
+            rowPair(lastInputs + c * area, n, r0, L / 2, r0 + y, finals + c * plane + std::size_t(y) * rowStride, rowStride,
+                    quincunxRows + c * quincunxRingSize(largest));
         if (lattice) continue;
         for (std::uint32_t row = std::max(y, 1u); row <= std::min(y + 1, L - 1); ++row) {
             if (width == 3) {
-                const T* first = finals + row * side + 1;
+                const T* first = finals + row * rowStride + 1;
                 interleave3(first, first + plane, first + 2 * plane, L - 1, out);
                 out += 3 * std::size_t(L - 1);
             } else {
