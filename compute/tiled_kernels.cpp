@@ -104,7 +104,9 @@ __attribute__((target("avx512f"), always_inline)) inline __m512 meanOf(__m512 a,
     return _mm512_mul_ps(_mm512_set1_ps(0.25f), _mm512_add_ps(_mm512_add_ps(a, b), _mm512_add_ps(c, d)));
 }
 
-// quincunxRow's loop with fBelow, x from 1 on.
+// quincunxRow's loop with fBelow, x from 1 on. Its last block loads up to 15 values past the
+// rows it reads: past the grid's last row, the scratch region after the grid's (evaluateTile
+// lays every grid out with another region after it); past fBelow's, the ring's room.
 __attribute__((target("avx512f"))) std::size_t quincunxRowAvx512(const float* __restrict mid, const float* __restrict up,
                                                                  const float* __restrict fBelow, std::size_t count,
                                                                  float* __restrict v, float* __restrict f) {
