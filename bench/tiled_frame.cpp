@@ -2,7 +2,7 @@
 // per-level rows of one model, on 1 and 2 threads, several rounds interleaved, medians, and the
 // ratio to the triad floor (12 B per refined vertex at the triad bandwidth of the same thread
 // count) measured in the same run. Memory as psub allocates it (its malloc settings and huge pages).
-//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair|normals|context]
+//   psub_tiled_frame MODEL|torus:N LEVELS [FRAMES=20] [ROUNDS=3] [profile|build|build-per-level|build-lean|pair|normals|context|sets]
 // With "profile", only the tiled form on 1 thread, FRAMES x ROUNDS frames (for perf); with
 // "build", only the builds, ROUNDS times each in one process
 // (the per-level table with its surface; the tiled form's lean build), for perf, and with
@@ -12,7 +12,9 @@
 // region-ordered copy of the table (orderLevelsByRegion) on 1 and 2 threads; with "normals", on
 // 2 threads, the tiled form's frame without and with normals, and the per-level form's normals();
 // with "context", on 2 threads, the tiled form's frame back to back, after a frame with normals
-// and after 256 MB written (what the caches hold between frames).
+// and after 256 MB written (what the caches hold between frames); with "sets", the tile
+// kernel's instruction sets this CPU has, frame by frame in turn, on 1 and 2 threads, positions
+// and with normals.
 #include "detail.h"
 #include "psub/evaluator.h"
 #include "psub/stencils.h"
@@ -53,7 +55,7 @@ double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control
 
 int main(int argc, char** argv) {
     if (argc < 3) {
-        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|build-lean|pair|normals|context]\n");
+        std::fprintf(stderr, "usage: psub_tiled_frame MODEL|torus:N LEVELS [FRAMES] [ROUNDS] [profile|build|build-per-level|build-lean|pair|normals|context|sets]\n");
         return 2;
     }
     const std::string model = argv[1];
@@ -133,6 +135,36 @@ int main(int argc, char** argv) {
             std::printf("tiled frame %.3f ms, with normals %.3f ms (normals %.3f); per-level normals() %.3f ms\n",
                         median(positions), median(withNormals), median(withNormals) - median(positions),
                         median(perLevelNormals));
+        }
+        return 0;
+    }
+    if (mode == "sets") {
+        // The tile kernel's instruction sets (setTileKernelInstructions) frame by frame in one
+        // process, on 1 and 2 threads, positions and with normals: the VM's state changes
+        // between processes, not within a frame's neighbours.
+        std::vector<std::string> sets;
+        for (const char* set : {"avx512f", "avx2", "baseline"})
+            if (psub::setTileKernelInstructions(set)) sets.push_back(set);
+        std::vector<float> normals(out.size());
+        for (int threads : {1, 2}) {
+            psub::CpuEvaluator<float> tiledForm(tiled, 3, threads);
+            for (int round = 0; round < rounds; ++round) {
+                std::vector<std::vector<double>> positions(sets.size()), withNormals(sets.size());
+                for (int f = 0; f < frames; ++f)
+                    for (std::size_t k = 0; k < sets.size(); ++k) {
+                        psub::setTileKernelInstructions(sets[k]);
+                        auto start = std::chrono::steady_clock::now();
+                        tiledForm.evaluate(control, out);
+                        positions[k].push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+                        start = std::chrono::steady_clock::now();
+                        tiledForm.evaluate(control, out, normals);
+                        withNormals[k].push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+                    }
+                std::printf("threads %d:", threads);
+                for (std::size_t k = 0; k < sets.size(); ++k)
+                    std::printf(" %s %.3f ms (with normals %.3f)", sets[k].c_str(), median(positions[k]), median(withNormals[k]));
+                std::printf("\n");
+            }
         }
         return 0;
     }

@@ -93,7 +93,7 @@ TEST(Concurrency, RefiningInSeveralThreadsAtOnceGivesIdenticalTables) {
 TEST(Concurrency, TheTableIsTheSameWhateverTheBuildsThreadCount) {
     const auto cow = test::load(test::dataPath("cow.obj"));
     const auto spot = test::load(test::dataPath("spot_control_mesh_uv.obj"));
-    const int before = omp_get_max_threads();
+    const test::OmpThreadsRestored restore;
     for (const auto* model : {&cow, &spot}) {
         for (const Boundary boundary : {Boundary::Paper, Boundary::Smooth}) {
             RefineOptions options{5, Preprocess::Auto, false, {}};
@@ -103,7 +103,7 @@ TEST(Concurrency, TheTableIsTheSameWhateverTheBuildsThreadCount) {
                 omp_set_num_threads(threads);
                 results.push_back(refine(model->mesh, model->checked.connectivity, options));
             }
-            omp_set_num_threads(before);
+            omp_set_num_threads(restore.found);
             for (const Refinement& r : results) {
                 EXPECT_EQ(r.perLevel.indices, results[0].perLevel.indices);
                 EXPECT_EQ(r.perLevel.destinations, results[0].perLevel.destinations);

@@ -7,6 +7,7 @@
 #include "psub/topology.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,6 +29,13 @@
 #include <vector>
 
 namespace psub::test {
+
+// OpenMP's thread count is process-wide: a test that sets it holds one of these, which puts back
+// the count it found however the test ends (`found`: to put it back sooner).
+struct OmpThreadsRestored {
+    const int found = omp_get_max_threads();
+    ~OmpThreadsRestored() { omp_set_num_threads(found); }
+};
 
 namespace fs = std::filesystem;
 

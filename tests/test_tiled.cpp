@@ -823,7 +823,7 @@ TEST(Tiled, WithoutTilesEveryPointIsTheFallbacksWithTheRulesNumbers) {
 // grid (no tile; the grid with the smooth boundary's split edges) and Spot (tiles beside a
 // fallback of three quarters), lean and full builds, on 1 and 2 threads.
 TEST(Tiled, TheTableIsTheSameOnOneThreadAndTwo) {
-    const int before = omp_get_max_threads();
+    const test::OmpThreadsRestored restore;
     for (const char* name : {"cow.obj", "spot_control_mesh.obj", "grid4x4.obj"})
         for (const bool perLevel : {false, true}) {
             SCOPED_TRACE(std::string(name) + (perLevel ? " full" : " lean"));
@@ -834,7 +834,7 @@ TEST(Tiled, TheTableIsTheSameOnOneThreadAndTwo) {
             const Refinement one = refine(loaded.mesh, loaded.checked.connectivity, options);
             omp_set_num_threads(2);
             const Refinement two = refine(loaded.mesh, loaded.checked.connectivity, options);
-            omp_set_num_threads(before);
+            omp_set_num_threads(restore.found);
             EXPECT_GE(2 * (one.tiled.refinedCount - one.tiled.fallbackBegin), one.tiled.refinedCount);
             EXPECT_EQ(one.tiled.tileCount() > 0, std::string(name) == "spot_control_mesh.obj");
             expectSameTable(one.tiled, two.tiled);
@@ -846,7 +846,7 @@ TEST(Tiled, TheTableIsTheSameOnOneThreadAndTwo) {
 // on two threads (its lattices walked, its finest faces made on both) is the full build's table
 // (whose faces refine makes) and the lean build's on one thread.
 TEST(Tiled, TheLeanBuildOnTwoThreadsMakesTheFullBuildsTable) {
-    const int before = omp_get_max_threads();
+    const test::OmpThreadsRestored restore;
     const test::Loaded torus = loadTorus(96, 96);
     RefineOptions options = test::tiledOptions(4, Boundary::Smooth);
     omp_set_num_threads(2);
@@ -855,7 +855,7 @@ TEST(Tiled, TheLeanBuildOnTwoThreadsMakesTheFullBuildsTable) {
     const Refinement lean = refine(torus.mesh, torus.checked.connectivity, options);
     omp_set_num_threads(1);
     const Refinement leanOnOne = refine(torus.mesh, torus.checked.connectivity, options);
-    omp_set_num_threads(before);
+    omp_set_num_threads(restore.found);
     const TiledTable& t = lean.tiled;
     EXPECT_GE(t.surface.faceOffsets.size() - 1, 65536u);
     EXPECT_GT(t.tileCount(), 8u);
