@@ -9,6 +9,7 @@
 #include "psub/evaluator.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -40,6 +41,9 @@ std::size_t quincunxRingSize(std::size_t n) { return 8 * ringStride(n) + 2 * kLi
 // to move them so that each row's second point starts a line (interleave3 reads from there).
 std::size_t latticePlane() { return wholeLines(TiledTable::kMaxLattice + 1) * (TiledTable::kMaxLattice + 1); }
 constexpr std::size_t kLatticeRoom = 2 * kLineFloats;
+// A plane of a row of quad or unit normals (evaluateTile): the lattice's quads, whole lines, and
+// a line of room for the AVX-512 loop's lanes past the row's last quad (normalRowAvx512).
+std::size_t quadPlane() { return wholeLines(TiledTable::kMaxLattice + 1) + kLineFloats; }
 
 // GCC's "no loop-carried dependence": the loops below write no row they read; without it GCC
 // does not vectorise them (alias checks), 2x slower. Other compilers go without.
@@ -168,6 +172,90 @@ __attribute__((target("avx512f"))) std::size_t fineRowsAvx512(const float* __res
         v00 = v01, v10 = v11, f00 = f01, fm0 = fm1, fp0 = fp1;
     }
     return 16 * blocks;
+}
+
+// Lane e of the packed vector k (values 16 k + e of x, y, z triples of 16 points) from two
+// vectors: lanes [k] take x (0 - 15) or y (16 - 31) into the triple's place, lanes [3 + k] keep
+// those (e) and take z (16 - 31).
+constexpr std::array<std::array<std::int32_t, 16>, 6> kTripleLanes = [] {
+    std::array<std::array<std::int32_t, 16>, 6> lanes{};
+    for (int k = 0; k < 3; ++k)
+        for (int e = 0; e < 16; ++e) {
+            const int point = (16 * k + e) / 3, axis = (16 * k + e) % 3;
+            lanes[k][e] = axis == 0 ? point : axis == 1 ? 16 + point : 0;
+            lanes[3 + k][e] = axis == 2 ? 16 + point : e;
+        }
+    return lanes;
+}();
+
+// normalRowBody for floats with AVX-512, in blocks of 16 inner points p = 1 + 16 b ...: the
+// rows r and r + 1 at p (whole lines: each lattice row's point 1 starts one, evaluateTile) and
+// at p + 1 (shifted in from the next block's), the quads at p and, lane 15 of the block before
+// shifted in, at p - 1 (quad 0 made alone). The same operations on the same values as
+// quadNormalsBody, vertexNormalsBody and interleave3Body, so the same bits. The last block's
+// lanes past point L - 1 (L - 1 is odd: at least one) compute from the rows' room values that
+// nothing reads: up to 15 quads into the room of `hi`'s planes (quadPlane) and 45 values past
+// out's 3 (L - 1) (the packed ring's room). Needs L > 16.
+__attribute__((target("avx512f"))) void normalRowAvx512(const float* __restrict x, const float* __restrict y,
+                                                        const float* __restrict z, std::size_t rowStride,
+                                                        std::size_t L, const float* __restrict lo,
+                                                        float* __restrict hi, std::size_t quadStride,
+                                                        float* __restrict out) {
+    const std::size_t s = rowStride, qs = quadStride;
+    const float* const planes[3] = {x, y, z};
+    {  // quad 0
+        float a[3], b[3];
+        for (int c = 0; c < 3; ++c) a[c] = planes[c][s + 1] - planes[c][0], b[c] = planes[c][s] - planes[c][1];
+        hi[0] = a[1] * b[2] - a[2] * b[1];
+        hi[qs] = a[2] * b[0] - a[0] * b[2];
+        hi[2 * qs] = a[0] * b[1] - a[1] * b[0];
+    }
+    __m512i lanes[6];
+    for (int k = 0; k < 6; ++k) lanes[k] = _mm512_loadu_si512(kTripleLanes[k].data());
+    // Per plane: rows r and r + 1 at p .. p + 15; the quads at p - 16 .. p - 1 (lane 15 read),
+    // this row's and the row below's.
+    __m512 row0[3], row1[3], before[3], loBefore[3] = {};
+    for (int c = 0; c < 3; ++c) {
+        row0[c] = _mm512_loadu_ps(planes[c] + 1), row1[c] = _mm512_loadu_ps(planes[c] + s + 1);
+        before[c] = _mm512_set1_ps(hi[c * qs]);
+        if (lo) loBefore[c] = _mm512_set1_ps(lo[c * qs]);
+    }
+    const std::size_t blocks = (L - 1 + 15) / 16;
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const std::size_t p = 1 + 16 * b;
+        __m512 next0[3], next1[3], across[3], back[3], quad[3];  // across, back: the quads' diagonals
+        for (int c = 0; c < 3; ++c) {
+            next0[c] = row0[c], next1[c] = row1[c];  // the last block: lane 15 unread
+            if (b + 1 < blocks)
+                next0[c] = _mm512_loadu_ps(planes[c] + p + 16), next1[c] = _mm512_loadu_ps(planes[c] + s + p + 16);
+            across[c] = _mm512_sub_ps(onFrom<1>(row1[c], next1[c]), row0[c]);
+            back[c] = _mm512_sub_ps(row1[c], onFrom<1>(row0[c], next0[c]));
+        }
+        for (int c = 0; c < 3; ++c) {
+            const int d = (c + 1) % 3, e = (c + 2) % 3;
+            quad[c] = _mm512_sub_ps(_mm512_mul_ps(across[d], back[e]), _mm512_mul_ps(across[e], back[d]));
+            _mm512_storeu_ps(hi + c * qs + p, quad[c]);
+        }
+        if (lo) {
+            __m512 sum[3];
+            for (int c = 0; c < 3; ++c) {
+                const __m512 below = _mm512_loadu_ps(lo + c * qs + p);
+                sum[c] = _mm512_add_ps(_mm512_add_ps(onFrom<15>(loBefore[c], below), below),
+                                       _mm512_add_ps(onFrom<15>(before[c], quad[c]), quad[c]));
+                loBefore[c] = below;
+            }
+            const __m512 squares = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(sum[0], sum[0]), _mm512_mul_ps(sum[1], sum[1])),
+                                                 _mm512_mul_ps(sum[2], sum[2]));
+            const __m512 length = _mm512_sqrt_ps(squares);
+            const __m512 inverse = _mm512_div_ps(_mm512_set1_ps(1.0f), length);
+            const __m512 scale = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(length, _mm512_setzero_ps(), _CMP_GT_OQ), inverse);
+            const __m512 nx = _mm512_mul_ps(sum[0], scale), ny = _mm512_mul_ps(sum[1], scale), nz = _mm512_mul_ps(sum[2], scale);
+            for (int k = 0; k < 3; ++k)
+                _mm512_storeu_ps(out + 3 * (p - 1) + 16 * k,
+                                 _mm512_permutex2var_ps(_mm512_permutex2var_ps(nx, lanes[k], ny), lanes[3 + k], nz));
+        }
+        for (int c = 0; c < 3; ++c) before[c] = quad[c], row0[c] = next0[c], row1[c] = next1[c];
+    }
 }
 #pragma GCC diagnostic pop
 #endif
@@ -374,6 +462,25 @@ template <std::size_t Block, class T>
     });
 }
 
+// Lattice row r's quad normals (x, y, z: the row's first value in each plane, row r + 1
+// `rowStride` on) into `hi` (3 planes `quadStride` apart) and, with `lo` (row r - 1's, as `hi`),
+// inner row r's unit normals packed as x, y, z triples into `out` (3 (L - 1) values; `unit`, 3
+// planes as `hi`, holds them in between). For floats with AVX-512 in one loop of its own
+// (normalRowAvx512), where a row has a whole block.
+template <std::size_t Block, class T>
+[[gnu::always_inline]] inline void normalRowBody(const T* x, const T* y, const T* z, std::size_t rowStride,
+                                                 std::size_t L, const T* lo, T* hi, std::size_t quadStride, T* unit,
+                                                 T* out) {
+#if defined(PSUB_TILE_LOOPS_AVX512)
+    if constexpr (Block == 16 && std::is_same_v<T, float>)
+        if (L > 16) return normalRowAvx512(x, y, z, rowStride, L, lo, hi, quadStride, out);
+#endif
+    quadNormalsBody<Block>(x, y, z, rowStride, L, hi, hi + quadStride, hi + 2 * quadStride);
+    if (!lo) return;
+    vertexNormalsBody<Block>(lo, hi, quadStride, L, unit, unit + quadStride, unit + 2 * quadStride);
+    interleave3Body(unit, unit + quadStride, unit + 2 * quadStride, L - 1, out);
+}
+
 // Values `done` to `count` of `from` to the same places of `to`, with streaming (non-temporal)
 // stores where `to` is aligned to the vector: a tile's points are written once and not read
 // again in the frame. Unless `last`, what is short of a whole vector at the end is left for the
@@ -416,8 +523,8 @@ struct TileSteps {
     void (*doubleStep)(const T* c, std::size_t n, std::size_t from, std::size_t count, T* f, T* ring);
     void (*rowPair)(const T* c, std::size_t n, std::size_t from, std::size_t count, std::size_t q, T* out,
                     std::size_t outStride, T* ring);
-    void (*quadNormals)(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx, T* ny, T* nz);
-    void (*vertexNormals)(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny, T* nz);
+    void (*normalRow)(const T* x, const T* y, const T* z, std::size_t rowStride, std::size_t L, const T* lo, T* hi,
+                      std::size_t quadStride, T* unit, T* out);
     void (*interleave3)(const T* x, const T* y, const T* z, std::size_t count, T* out);
     std::size_t (*streamCopy)(const T* from, std::size_t done, std::size_t count, T* to, bool last);
 };
@@ -439,22 +546,17 @@ constexpr std::size_t kBlockSteps = Bytes == 0 ? 0 : std::max<std::size_t>(8, By
         rowPairBody<kBlockSteps<BYTES, T>>(c, n, from, count, q, out, outStride, ring);                              \
     }                                                                                                                \
     template <class T>                                                                                               \
-    TARGET void NAME##QuadNormals(const T* x, const T* y, const T* z, std::size_t side, std::size_t L, T* nx,        \
-                                  T* ny, T* nz) {                                                                    \
-        quadNormalsBody<kBlockSteps<BYTES, T>>(x, y, z, side, L, nx, ny, nz);                                        \
-    }                                                                                                                \
-    template <class T>                                                                                               \
-    TARGET void NAME##VertexNormals(const T* lo, const T* hi, std::size_t stride, std::size_t L, T* nx, T* ny,       \
-                                    T* nz) {                                                                         \
-        vertexNormalsBody<kBlockSteps<BYTES, T>>(lo, hi, stride, L, nx, ny, nz);                                     \
+    TARGET void NAME##NormalRow(const T* x, const T* y, const T* z, std::size_t rowStride, std::size_t L,            \
+                                const T* lo, T* hi, std::size_t quadStride, T* unit, T* out) {                       \
+        normalRowBody<kBlockSteps<BYTES, T>>(x, y, z, rowStride, L, lo, hi, quadStride, unit, out);                  \
     }                                                                                                                \
     template <class T>                                                                                               \
     TARGET void NAME##Interleave3(const T* x, const T* y, const T* z, std::size_t count, T* out) {                   \
         interleave3Body(x, y, z, count, out);                                                                        \
     }                                                                                                                \
     template <class T>                                                                                               \
-    constexpr TileSteps<T> NAME##Steps{&NAME##DoubleStep<T>, &NAME##RowPair<T>, &NAME##QuadNormals<T>,               \
-                                       &NAME##VertexNormals<T>, &NAME##Interleave3<T>, &NAME##StreamCopy<T>};
+    constexpr TileSteps<T> NAME##Steps{&NAME##DoubleStep<T>, &NAME##RowPair<T>, &NAME##NormalRow<T>,                 \
+                                       &NAME##Interleave3<T>, &NAME##StreamCopy<T>};
 
 PSUB_TILE_STEPS(baseline, , 0)
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -530,9 +632,9 @@ bool setTileKernelInstructions(std::string_view name) {
 }
 
 std::size_t tileScratchSize(const TiledTable& table, std::uint32_t width) {
-    const std::size_t n = largestGrid(table), side = TiledTable::kMaxLattice + 1;
+    const std::size_t n = largestGrid(table);
     return (2 + 2 * std::size_t(width)) * n * n + std::size_t(width) * quincunxRingSize(n) + std::size_t(width) * latticePlane() + kLatticeRoom +
-           packedRingSize(width) + packedRingSize(3) + 9 * side;
+           packedRingSize(width) + packedRingSize(3) + 9 * quadPlane() + 2 * kLineFloats;
 }
 
 // Scratch: a, b (one value's grids between double steps), each value's grid before the last
@@ -553,7 +655,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     T* finals = inputs + width * area;       // the finest lattice of each value
     T* packed = finals + width * plane + kLatticeRoom;  // the inner points, `width` values each (a ring)
     T* packedNormals = packed + packedRingSize(width);  // the inner points' normals (a ring)
-    T* quads = packedNormals + packedRingSize(3);  // two rows of quad normals, 3 planes each
+    T* quads = packedNormals + packedRingSize(3);  // two rows of quad normals and one of unit normals
     const std::uint32_t g = table.gridSize(k), L = table.lattice(k), t = table.doubleSteps;
     const std::uint32_t* gather = table.gather.data() + table.gatherBegin[k];
     // Plain copies, not a structured binding: lambdas below call them, and clang before 16
@@ -561,8 +663,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     const TileSteps<T>& chosen = steps<T>();
     const auto doubleStep = chosen.doubleStep;
     const auto rowPair = chosen.rowPair;
-    const auto quadNormals = chosen.quadNormals;
-    const auto vertexNormals = chosen.vertexNormals;
+    const auto normalRow = chosen.normalRow;
     const auto interleave3 = chosen.interleave3;
     const auto streamCopy = chosen.streamCopy;
     const std::size_t points = std::size_t(g) * g;
@@ -620,9 +721,13 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
     // lattice's rows are made: quad normals of row r (lattice rows r and r + 1), then the unit
     // normals of inner row r from quad rows r - 1 and r; rows of quad normals below `quadRow`
     // are made, and `normalsStreamed` values of the packed normals written.
-    const std::size_t stride = 3 * std::size_t(side);
-    T* rows[2] = {quads, quads + stride};
-    T* unit = quads + 2 * stride;  // one row's unit normals, 3 planes
+    // Each row 3 planes of quadPlane() values, every plane's value 1 on a line (normalRowAvx512
+    // loads whole lines from there).
+    const std::size_t qs = quadPlane();
+    const std::uintptr_t quadsAddress = reinterpret_cast<std::uintptr_t>(quads);
+    quads += ((64 - quadsAddress % 64) % 64) / sizeof(T) + (kLineFloats - 1);
+    T* rows[2] = {quads, quads + 3 * qs};
+    T* unit = quads + 6 * qs;  // one row's unit normals, 3 planes
     std::uint32_t quadRow = 0;
     T* normalsOut = packedNormals;  // as `out`, from stream value `normalsStreamed` on
     std::size_t normalsStreamed = 0;
@@ -634,7 +739,7 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
         if (!normals.faceNormals) return;
         for (std::uint32_t i = 0; i < L; i += (r == 0 || r + 1 == L) ? 1 : L - 1) {
             T* f = normals.faceNormals + 4 * (ring ? std::size_t(*ring++) : slot++);
-            f[0] = q[i], f[1] = q[side + i], f[2] = q[2 * side + i], f[3] = 0;
+            f[0] = q[i], f[1] = q[qs + i], f[2] = q[2 * qs + i], f[3] = 0;
         }
     };
     const auto normalRowsTo = [&](std::uint32_t last, bool finish) {
@@ -642,13 +747,10 @@ void evaluateTile(const TiledTable& table, std::size_t k, const T* base, std::ui
             const std::uint32_t r = quadRow;
             T* hi = rows[r % 2];
             const std::size_t at0 = std::size_t(r) * rowStride;
-            quadNormals(finals + at0, finals + plane + at0, finals + 2 * plane + at0, rowStride, L, hi, hi + side,
-                        hi + 2 * side);
+            normalRow(finals + at0, finals + plane + at0, finals + 2 * plane + at0, rowStride, L,
+                      r == 0 ? nullptr : rows[(r - 1) % 2], hi, qs, unit, normalsOut);
             toFaces(hi, r);
-            if (r == 0) continue;
-            vertexNormals(rows[(r - 1) % 2], hi, side, L, unit, unit + side, unit + 2 * side);
-            interleave3(unit, unit + side, unit + 2 * side, L - 1, normalsOut);
-            normalsOut += 3 * std::size_t(L - 1);
+            if (r > 0) normalsOut += 3 * std::size_t(L - 1);
         }
         flush(packedNormals, normalsOut, normalsStreamed, normals.normals + 3 * std::size_t(begin), finish);
     };
