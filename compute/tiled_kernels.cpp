@@ -615,7 +615,8 @@ std::uint32_t largestGrid(const TiledTable& table) {
 }
 
 // Values of a ring of packed inner rows (evaluateTile's `flush`) of `width` values a point: two
-// rows (a row pair's, or two rows of normals) and what was short of a vector before them.
+// rows (a row pair's, or two rows of normals) and what was short of a vector before them (under
+// 16), and for the normals the 45 values normalRowAvx512 writes past a row's end.
 std::size_t packedRingSize(std::uint32_t width) { return 2 * std::size_t(width) * (TiledTable::kMaxLattice + 1) + 64; }
 
 }  // namespace
