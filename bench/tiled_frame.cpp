@@ -38,14 +38,20 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
+// Wall milliseconds of work().
+template <class Work>
+double msOf(Work&& work) {
+    const auto start = std::chrono::steady_clock::now();
+    work();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
 // Median ms of `frames` evaluations, the control points moving before each.
 double frameMs(psub::CpuEvaluator<float>& evaluator, std::vector<float>& control, std::vector<float>& out, int frames) {
     std::vector<double> times;
     for (int f = 0; f < frames + 2; ++f) {
         for (std::size_t i = 0; i < control.size(); i += 3) control[i + 2] += 1e-4f * float((f + i) % 7);
-        const auto start = std::chrono::steady_clock::now();
-        evaluator.evaluate(control, out);
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+        const double ms = msOf([&] { evaluator.evaluate(control, out); });
         if (f >= 2) times.push_back(ms);
     }
     return median(times);
@@ -119,18 +125,13 @@ int main(int argc, char** argv) {
         using Evaluator = psub::CpuEvaluator<float>;
         Evaluator tiledForm(tiled, 3, 2), perLevelForm(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 2);
         std::vector<float> normals(out.size()), canonical(out.size());
-        auto ms = [](auto&& work) {
-            const auto start = std::chrono::steady_clock::now();
-            work();
-            return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-        };
         for (int round = 0; round < rounds; ++round) {
             std::vector<double> positions, withNormals, perLevelNormals;
             for (int f = 0; f < frames; ++f) {
-                positions.push_back(ms([&] { tiledForm.evaluate(control, out); }));
-                withNormals.push_back(ms([&] { tiledForm.evaluate(control, out, normals); }));
+                positions.push_back(msOf([&] { tiledForm.evaluate(control, out); }));
+                withNormals.push_back(msOf([&] { tiledForm.evaluate(control, out, normals); }));
                 perLevelForm.evaluate(control, canonical);
-                perLevelNormals.push_back(ms([&] { perLevelForm.normals(canonical, normals); }));
+                perLevelNormals.push_back(msOf([&] { perLevelForm.normals(canonical, normals); }));
             }
             std::printf("tiled frame %.3f ms, with normals %.3f ms (normals %.3f); per-level normals() %.3f ms\n",
                         median(positions), median(withNormals), median(withNormals) - median(positions),
@@ -153,12 +154,8 @@ int main(int argc, char** argv) {
                 for (int f = 0; f < frames; ++f)
                     for (std::size_t k = 0; k < sets.size(); ++k) {
                         psub::setTileKernelInstructions(sets[k]);
-                        auto start = std::chrono::steady_clock::now();
-                        tiledForm.evaluate(control, out);
-                        positions[k].push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-                        start = std::chrono::steady_clock::now();
-                        tiledForm.evaluate(control, out, normals);
-                        withNormals[k].push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+                        positions[k].push_back(msOf([&] { tiledForm.evaluate(control, out); }));
+                        withNormals[k].push_back(msOf([&] { tiledForm.evaluate(control, out, normals); }));
                     }
                 std::printf("threads %d:", threads);
                 for (std::size_t k = 0; k < sets.size(); ++k)
@@ -177,10 +174,7 @@ int main(int argc, char** argv) {
         Evaluator copy(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
         Evaluator two(r.perLevel, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 2);
         psub::PerLevelTable regions = r.perLevel;
-        const auto orderStart = std::chrono::steady_clock::now();
-        psub::orderLevelsByRegion(regions, 2);
-        const double orderMs =
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - orderStart).count();
+        const double orderMs = msOf([&] { psub::orderLevelsByRegion(regions, 2); });
         Evaluator regionOne(regions, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 1);
         Evaluator regionTwo(regions, r.factorized, r.surface, psub::TableForm::PerLevel, 3, 2);
         std::vector<float> out2(out.size());
@@ -204,11 +198,7 @@ int main(int argc, char** argv) {
         std::printf("region order: %.1f ms to make; frames equal to the table's\n", orderMs);
         const auto timed = [&](auto&& frame) {
             std::vector<double> times;
-            for (int f = 0; f < frames; ++f) {
-                const auto start = std::chrono::steady_clock::now();
-                frame();
-                times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-            }
+            for (int f = 0; f < frames; ++f) times.push_back(msOf(frame));
             return median(times);
         };
         for (int round = 0; round < rounds; ++round) {
@@ -237,11 +227,7 @@ int main(int argc, char** argv) {
         psub::CpuEvaluator<float> tiledEvaluator(tiled, 3, 2);
         std::vector<float> normals(out.size());
         std::vector<char> junk(std::size_t(256) << 20, 1);
-        const auto ms = [&] {
-            const auto start = std::chrono::steady_clock::now();
-            tiledEvaluator.evaluate(control, out);
-            return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-        };
+        const auto ms = [&] { return msOf([&] { tiledEvaluator.evaluate(control, out); }); };
         for (int round = 0; round < rounds; ++round) {
             std::vector<double> warm, afterNormals, cold;
             for (int f = 0; f < frames; ++f) warm.push_back(ms());
