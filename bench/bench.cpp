@@ -88,10 +88,12 @@ int torusSize(const std::string& name) {
 
 // Build times in ms, each the fastest of its repetitions: refine() with the per-level (and
 // factorized) tables, and the tiled form's own lean build (RefineOptions::perLevel = false,
-// what a program that evaluates only the tiled form builds; the same table, tests/test_tiled.cpp).
+// what a program that evaluates only the tiled form builds; the same table, tests/test_tiled.cpp)
+// without the canonical order (RefineOptions::canonicalOrder = false: what a program that
+// evaluates and draws it builds; where tiles cover the mesh, no level after B), and with it.
 struct BuildMs {
     double topology = 1e300, perLevel = 1e300, factorized = 1e300;
-    double tiledTopology = 1e300, tiled = 1e300;
+    double tiledTopology = 1e300, tiled = 1e300, tiledWithCanonical = 1e300;
 };
 
 // The tiled form's record (psub/tiled.h): table bytes are what evaluating reads (rows, gather
@@ -119,6 +121,7 @@ Record tiledRecord(const Model& model, int levels, int k, const Refinement& refi
     r.topologyMs = build.tiledTopology;
     r.tableMs = build.tiled;
     r.buildMs = r.topologyMs + r.tableMs;
+    r.buildWithCanonicalMs = build.tiledWithCanonical;
     r.tableBytes = tiled.bytes();
     r.tableEntries = tiled.rows.indices.size() + tiled.gather.size();
     r.bytesPerFrame = r.tableBytes + 12 * (levelVertices + tiled.refinedCount);
@@ -223,7 +226,7 @@ void benchVulkan(const Model& model, int levels, int k, const Refinement& refine
 // tiles write and the share of frame time the per-level rows take (levels up to B and the
 // fallback's, timed alone on a copy without tiles).
 void tiledNote(const Model& model, int levels, const Refinement& refinement, int threads, const Animation& animation,
-               std::vector<std::string>& notes) {
+               const BuildMs& build, std::vector<std::string>& notes) {
     const TiledTable& tiled = refinement.tiled;
     TiledTable rowsOnly = tiled;
     rowsOnly.side.clear();
@@ -245,6 +248,11 @@ void tiledNote(const Model& model, int levels, const Refinement& refinement, int
                            100.0 - 100.0 * tiled.fallbackBegin / std::max(1u, tiled.refinedCount),
                            (unsigned long long)fallbackRows, rowsMs, wholeMs, 100.0 * rowsMs / std::max(1e-9, wholeMs),
                            threads));
+    const double drawingOnly = build.tiledTopology + build.tiled;
+    if (build.tiledWithCanonical > drawingOnly * 1.0001)
+        notes.push_back(format("%s P-S %d levels, tiled form: built for drawing (no canonical order, no level after B) in "
+                               "%.1f ms; with the canonical order (psub subdivide's) %.1f ms",
+                               model.name.c_str(), levels, drawingOnly, build.tiledWithCanonical));
 }
 
 Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const FrameSettings& frames,
@@ -274,9 +282,21 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     options.perLevel = false;
     const auto leanStart = Clock::now();
     for (int lean = 0; lean < kBuildRepetitions && (lean == 0 || msSince(leanStart) < kBuildSeconds * 1e3); ++lean) {
-        const Refinement tiledOnly = refine(model.mesh, model.connectivity, options);
-        build.tiledTopology = std::min(build.tiledTopology, tiledOnly.topologyMs);
-        build.tiled = std::min(build.tiled, tiledOnly.tiledMs);
+        options.canonicalOrder = false;
+        bool withoutCanonical = false;
+        {
+            const Refinement tiledOnly = refine(model.mesh, model.connectivity, options);
+            build.tiledTopology = std::min(build.tiledTopology, tiledOnly.topologyMs);
+            build.tiled = std::min(build.tiled, tiledOnly.tiledMs);
+            withoutCanonical = tiledOnly.tiled.canonical.empty();
+            if (!withoutCanonical)  // not the drawing-only build: tiles do not cover the mesh
+                build.tiledWithCanonical = std::min(build.tiledWithCanonical, tiledOnly.topologyMs + tiledOnly.tiledMs);
+        }
+        options.canonicalOrder = true;
+        if (withoutCanonical) {
+            const Refinement tiledOnly = refine(model.mesh, model.connectivity, options);
+            build.tiledWithCanonical = std::min(build.tiledWithCanonical, tiledOnly.topologyMs + tiledOnly.tiledMs);
+        }
     }
     const PerLevelTable& perLevel = refinement.perLevel;
     const FactorizedTable& factorized = refinement.factorized;
@@ -380,12 +400,13 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
     if (timesUntiled) {
         progress.show(label + ": PSub tiled form without tiles");
         options.tileSides = TileSides::None;
-        untiledBuild.tiledTopology = untiledBuild.tiled = 1e300;
+        untiledBuild.tiledTopology = untiledBuild.tiled = untiledBuild.tiledWithCanonical = 1e300;
         const auto untiledStart = Clock::now();
         for (int n = 0; n < kBuildRepetitions && (n == 0 || msSince(untiledStart) < kBuildSeconds * 1e3); ++n) {
             untiled = refine(model.mesh, model.connectivity, options);
             untiledBuild.tiledTopology = std::min(untiledBuild.tiledTopology, untiled.topologyMs);
             untiledBuild.tiled = std::min(untiledBuild.tiled, untiled.tiledMs);
+            untiledBuild.tiledWithCanonical = std::min(untiledBuild.tiledWithCanonical, untiled.topologyMs + untiled.tiledMs);
         }
     }
     if (timesUntiled && allThreads > 1) {
@@ -396,7 +417,7 @@ Shape runPSub(const Model& model, int levels, int k, bool withFactorized, const 
         CpuEvaluator<float> evaluator(untiled.tiled, 3, allThreads);
         measure(r, evaluator, TableForm::Tiled, &untiled.tiled);
     }
-    tiledNote(model, levels, refinement, threadCounts.back(), animation, notes);
+    tiledNote(model, levels, refinement, threadCounts.back(), animation, build, notes);
 #if PSUB_HAVE_VULKAN
     benchVulkan(model, levels, k, refinement, build, forms, timesUntiled ? &untiled : nullptr, untiledBuild, animation,
                 reference, shape, frames, progress, label, records, warnings);

@@ -245,6 +245,7 @@ struct Record {
     int layoutFloats = 3;        // layout_floats
     double probe3 = -1, probe4 = -1;  // probe_ms_3f / probe_ms_4f (OpenSubdiv layout choice)
     double buildMs = 0, topologyMs = 0, tableMs = 0;  // build_ms = topology_ms + table_ms
+    double buildWithCanonicalMs = 0;  // build_with_canonical_order_ms: the tiled form's with its canonical order
     int buildRepetitions = 1;    // build_repetitions: fastest of these many builds
     std::uint64_t tableBytes = 0;
     std::uint64_t tableEntries = 0;

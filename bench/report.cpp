@@ -244,6 +244,7 @@ void writeJson(const Report& report, const std::string& path) {
                   {"threads", r.threads}, {"layout_floats", r.layoutFloats}};
         if (r.probe3 >= 0) o["probe_ms_3f"] = r.probe3, o["probe_ms_4f"] = r.probe4;
         o["build_ms"] = r.buildMs, o["topology_ms"] = r.topologyMs, o["table_ms"] = r.tableMs;
+        if (r.buildWithCanonicalMs > 0) o["build_with_canonical_order_ms"] = r.buildWithCanonicalMs;
         o["build_repetitions"] = r.buildRepetitions, o["table_bytes"] = r.tableBytes, o["table_entries"] = r.tableEntries;
         o["frame_ms_median"] = r.timing.median, o["frame_ms_min"] = r.timing.min, o["frames"] = r.timing.frames;
         o["bytes_per_frame"] = r.bytesPerFrame, o["gbs"] = r.gbs, o["bandwidth_fraction"] = r.bandwidthFraction;

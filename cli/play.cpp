@@ -311,6 +311,9 @@ void refineAnimated(Playback& p) {
     // The forced tiled form builds only its own table (lean), and so does auto where it would
     // not time the per-level rows.
     options.perLevel = o.form != kFormTiled && (o.form != kFormAuto || autoTimesPerLevel(o.backend, finest.faces, o.levels));
+    // Only --verify reads the tiled form's canonical order: without it, the lean build of a mesh
+    // the tiles cover whole makes no level after B (RefineOptions::canonicalOrder).
+    options.canonicalOrder = o.verify;
     p.refinement = refine(mesh, connectivity, options);
     if (o.verify) {
         Verifier v{refineTopology(mesh.faces, connectivity, preprocess, o.levels, {}, o.boundary), o.rules, {}, 0, 0};

@@ -72,6 +72,7 @@ Drawable drawablePS(VulkanContext& context, Backend backend, const Mesh& mesh, c
     options.rules = rules;
     options.tiled = form == TableForm::Tiled;
     options.perLevel = form != TableForm::Tiled;  // the tiled form alone: the lean build
+    options.canonicalOrder = false;               // drawn, never written in canonical order
     Refinement r = refine(mesh, checked.connectivity, options);
     Drawable d;
     d.what = "P-S, " + std::to_string(levels) + (levels == 1 ? " step" : " steps");

@@ -177,6 +177,7 @@ Built buildTables(const Animated& a, int levels, Rules rules, Boundary boundary,
     options.levels = levels, options.rules = rules, options.boundary = boundary;
     options.tiled = form == kFormAuto || form == kFormTiled;
     options.perLevel = form != kFormTiled && (form != kFormAuto || autoTimesPerLevel(backend, finest.faces, levels));
+    options.canonicalOrder = false;  // drawn, never written in canonical order
     b.ps = refine(mesh, connectivity, options);
     b.ccStencils = std::make_unique<CatmarkStencils>(mesh.faces, b.ccLevels);
     b.cc = buildSurfaceTable(b.ccStencils->finestFaces());

@@ -835,6 +835,11 @@ TileNormalSets tileNormalSets(const TiledTable& tiled) {
 
 template <class T>
 void toCanonical(const TiledTable& table, std::span<const T> drawing, std::span<T> canonical, std::uint32_t width) {
+    if (table.canonical.size() != table.refinedCount)
+        throw std::invalid_argument("toCanonical: the tiled table was built without its canonical order "
+                                    "(RefineOptions::canonicalOrder false)");
+    if (drawing.size() < std::size_t(table.refinedCount) * width || canonical.size() < std::size_t(table.refinedCount) * width)
+        throw std::invalid_argument("toCanonical: the buffers hold fewer than the table's points");
     for (std::size_t p = 0; p < table.canonical.size(); ++p)
         std::copy_n(drawing.data() + p * width, width, canonical.data() + std::size_t(table.canonical[p]) * width);
 }

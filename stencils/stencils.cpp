@@ -525,9 +525,34 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         appendStepRows(leanRows, parent.faces, parent.connectivity, out.preprocessed && k == 1, split, {}, options.rules,
                        corners, keep);
     };
-    planTiles(0);
     // The face-varying channel follows the positions level by level (docs/face-varying.md).
     const bool uv = !mesh.uv.empty() && options.boundary == Boundary::Paper;
+    // The drawing-only build (RefineOptions::canonicalOrder false): where the blocks chosen on
+    // level B (the parent, level k) cover it whole, the tiles placed there, the rest of the steps
+    // only counted (their levels' sizes, no rows).
+    bool drawingOnly = false;
+    const auto placeOnBase = [&](int k) {
+        if (!lean || options.canonicalOrder || uv || plan.doubleSteps == 0 || k != int(plan.baseLevel) || k < firstQuadLevel)
+            return false;
+        const auto start = Clock::now();
+        Counts counts = countMesh(parent.faces, parent.connectivity);
+        std::vector<Counts> after;  // levels k + 1 .. steps
+        for (int step = k + 1; step <= steps; ++step)
+            after.push_back(counts = countsAfterStep(counts, splitsBoundary(options.boundary, step - (out.preprocessed ? 1 : 0))));
+        if (!placeTilesOnBase(out.tiled, blocks, parent, std::uint32_t(counts.vertices))) return false;
+        std::uint64_t vertices = parent.faces.vertexCount;
+        for (const Counts& level : after) {
+            leanRows.levels.push_back({std::uint32_t(vertices), std::uint32_t(level.vertices), leanRows.groups.size(),
+                                       leanRows.groups.size(), leanRows.destinations.size(), leanRows.destinations.size()});
+            vertices = level.vertices;
+        }
+        out.tiled.rows = std::move(leanRows);
+        out.tiledMs += ms(start);
+        if (options.onLevel)  // the steps not taken
+            for (int step = k + 1; step <= steps; ++step) options.onLevel(step, 0);
+        return drawingOnly = true;
+    };
+    planTiles(0);
     FaceVaryingLevel uvLevel;
     std::vector<char> uvCorners;  // Rules::Shape's input corners of the channel's own mesh
     if (uv) {
@@ -540,7 +565,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
     }
     if (options.perLevel)
         reserveRows(out.perLevel, countMesh(mesh.faces, connectivity), 1, steps, options.boundary, out.preprocessed);
-    for (int k = 1; k <= steps; ++k) {
+    for (int k = 1; k <= steps && !placeOnBase(k - 1); ++k) {
         auto start = Clock::now();
         const bool split = splitsBoundary(options.boundary, k - (out.preprocessed ? 1 : 0));
         if (uv) {
@@ -603,7 +628,7 @@ Refinement refine(const Mesh& mesh, const Connectivity& connectivity, const Refi
         if (options.onLevel) options.onLevel(k, topologyMs / 1e3);
         planTiles(k);
     }
-    if (options.tiled) {
+    if (options.tiled && !drawingOnly) {
         const auto start = Clock::now();
         if (steps == 0) drawOf = placeTiles(out.tiled, blocks, nullptr, false, parent.faces.vertexCount);
         if (lean)

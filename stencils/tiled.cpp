@@ -733,6 +733,156 @@ std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& block
 
 namespace {
 
+// The surface of tiles that cover the finest level: their lattices' quads tile after tile, row
+// by row, corners counter-clockwise in the tile's frame as the surface's faces turn
+// (walkLattice); each vertex's faces in face order, as buildSurfaceTable lists them, but made
+// tile by tile on the threads: an inner point's four faces are its own tile's (below left,
+// below, left, its own), a ring point's are gathered from the tiles' ring quads in turn.
+SurfaceTable latticeSurface(const TiledTable& t) {
+    const std::size_t tiles = t.tileCount();
+    std::vector<std::size_t> faceAt(tiles + 1, 0);
+    for (std::size_t k = 0; k < tiles; ++k) faceAt[k + 1] = faceAt[k] + std::size_t(t.lattice(k)) * t.lattice(k);
+    const std::size_t faceCount = faceAt[tiles];
+    SurfaceTable surface;
+    surface.vertexCount = t.refinedCount;
+    surface.faceOffsets.resize(faceCount + 1);
+    surface.faceVerts.resize(4 * faceCount);
+    surface.vertexOffsets.assign(std::size_t(t.refinedCount) + 1, 0);
+    surface.vertexFaces.resize(4 * faceCount);
+    const bool threads = faceCount >= 65536;
+    const auto inner = [&](std::size_t k) { return std::size_t(t.lattice(k) - 1) * (t.lattice(k) - 1); };
+#pragma omp parallel for schedule(dynamic, 1) if (threads)
+    for (std::ptrdiff_t tile = 0; tile < std::ptrdiff_t(tiles); ++tile) {
+        const std::size_t k = std::size_t(tile);
+        const std::uint32_t L = t.lattice(k);
+        std::size_t f = faceAt[k];
+        for (std::uint32_t y = 0; y < L; ++y)
+            for (std::uint32_t x = 0; x < L; ++x, ++f) {
+                std::uint32_t* q = &surface.faceVerts[4 * f];
+                q[0] = t.drawingPosition(k, x, y);
+                q[1] = t.drawingPosition(k, x + 1, y);
+                q[2] = t.drawingPosition(k, x + 1, y + 1);
+                q[3] = t.drawingPosition(k, x, y + 1);
+                surface.faceOffsets[f + 1] = std::uint32_t(4 * (f + 1));
+            }
+        std::fill_n(surface.vertexOffsets.begin() + t.output[k] + 1, inner(k), 4u);
+    }
+    // A ring point's faces: counted, then listed, over the ring quads of every tile in turn.
+    std::vector<std::uint8_t> ring(t.refinedCount, 0);
+    for (std::uint32_t p : t.border) ring[p] = 1;
+    const auto eachRingCorner = [&](auto&& visit) {
+        for (std::size_t k = 0; k < tiles; ++k) {
+            const std::uint32_t L = t.lattice(k);
+            for (std::uint32_t y = 0; y < L; ++y)
+                for (std::uint32_t x = 0; x < L; x += (y == 0 || y + 1 == L) ? 1 : L - 1) {
+                    const std::uint32_t f = std::uint32_t(faceAt[k] + std::size_t(y) * L + x);
+                    for (int c = 0; c < 4; ++c)
+                        if (ring[surface.faceVerts[4 * std::size_t(f) + c]]) visit(surface.faceVerts[4 * std::size_t(f) + c], f);
+                }
+        }
+    };
+    eachRingCorner([&](std::uint32_t p, std::uint32_t) { ++surface.vertexOffsets[p + 1]; });
+    for (std::uint32_t p = 0; p < t.refinedCount; ++p) surface.vertexOffsets[p + 1] += surface.vertexOffsets[p];
+    if (surface.vertexOffsets.back() != surface.vertexFaces.size())
+        throw std::logic_error("latticeSurface: the tiles' faces do not cover the finest level");
+    // ring[p] - 1: the faces of ring point p listed so far (valence 4: every vertex of a tile's grid is regular).
+    eachRingCorner([&](std::uint32_t p, std::uint32_t f) { surface.vertexFaces[surface.vertexOffsets[p] + ring[p]++ - 1] = f; });
+#pragma omp parallel for schedule(dynamic, 1) if (threads)
+    for (std::ptrdiff_t tile = 0; tile < std::ptrdiff_t(tiles); ++tile) {
+        const std::size_t k = std::size_t(tile);
+        const std::uint32_t L = t.lattice(k);
+        for (std::uint32_t y = 1; y < L; ++y)
+            for (std::uint32_t x = 1; x < L; ++x) {
+                const std::uint32_t p = t.output[k] + (y - 1) * (L - 1) + x - 1;
+                const std::uint32_t below = std::uint32_t(faceAt[k] + std::size_t(y - 1) * L + x), above = below + L;
+                std::uint32_t* faces = &surface.vertexFaces[surface.vertexOffsets[p]];
+                faces[0] = below - 1, faces[1] = below, faces[2] = above - 1, faces[3] = above;
+            }
+    }
+    return surface;
+}
+
+}  // namespace
+
+bool placeTilesOnBase(TiledTable& table, const TileBlocks& blocks, const Level& base, std::uint32_t finestCount) {
+    const Faces& faces = base.faces;
+    const Connectivity& c = base.connectivity;
+    if (blocks.side.empty() || table.doubleSteps == 0 || blocks.covered.size() != std::size_t(faces.faceCount()) ||
+        std::find(blocks.covered.begin(), blocks.covered.end(), 0) != blocks.covered.end())
+        return false;
+    for (Index v = 0; v < faces.vertexCount; ++v)
+        if (c.outgoingOf(v).empty()) return false;
+    const std::uint32_t steps = 1u << table.doubleSteps, halo = blocks.halo;
+    // The drawing position of each level-B vertex's finest point and of each edge's steps - 1
+    // inner points (point i from the tail of the edge's first half-edge), once numbered.
+    std::vector<std::uint32_t> vertexAt(faces.vertexCount, kNone), edgeAt(std::size_t(c.edgeCount()) * (steps - 1), kNone);
+    // Point i of `steps` from a to b: its slot, or null where a and b share no edge or several.
+    const auto edgeSlot = [&](Index a, Index b, std::uint32_t i) -> std::uint32_t* {
+        Index found = kNoIndex;
+        for (Index h : c.outgoingOf(a)) {
+            if (faces.verts[c.next[h]] != b) continue;
+            if (found != kNoIndex) return nullptr;
+            found = h;
+        }
+        if (found == kNoIndex) return nullptr;
+        const Index e = c.edgeOf[found];
+        const bool forward = faces.verts[c.edgeHalfedge[e]] == a;
+        return &edgeAt[std::size_t(e) * (steps - 1) + (forward ? i : steps - i) - 1];
+    };
+    TiledTable placed;
+    placed.doubleSteps = table.doubleSteps;
+    std::uint32_t next = 0;
+    std::size_t gathered = 0, faceCount = 0;
+    for (std::size_t k = 0; k < blocks.side.size(); ++k) {
+        const std::uint32_t side = blocks.side[k], g = side + 2 * halo + 1, L = side * steps;
+        const std::span<const Index> grid(blocks.gather.data() + gathered, std::size_t(g) * g);
+        gathered += grid.size();
+        placed.side.push_back(side);
+        placed.gather.insert(placed.gather.end(), grid.begin(), grid.end());
+        placed.gatherBegin.push_back(placed.gather.size());
+        placed.output.push_back(next);
+        next += (L - 1) * (L - 1);
+        faceCount += std::size_t(L) * L;
+        // Level-B grid vertex (X, Y) of the block (its corner (0, 0) at the halo's end).
+        const auto vertex = [&](std::uint32_t X, std::uint32_t Y) { return grid[std::size_t(halo + Y) * g + halo + X]; };
+        for (std::uint32_t y = 0; y <= L; ++y)
+            for (std::uint32_t x = 0; x <= L; x += (y == 0 || y == L) ? 1 : L) {
+                std::uint32_t* slot = nullptr;
+                if (x % steps == 0 && y % steps == 0)
+                    slot = &vertexAt[vertex(x / steps, y / steps)];
+                else if (y % steps == 0)  // on rows 0 and L: along +x
+                    slot = edgeSlot(vertex(x / steps, y / steps), vertex(x / steps + 1, y / steps), x % steps);
+                else  // on columns 0 and L: along +y
+                    slot = edgeSlot(vertex(x / steps, y / steps), vertex(x / steps, y / steps + 1), y % steps);
+                if (!slot) return false;
+                if (*slot == kNone) *slot = next++;
+                placed.border.push_back(*slot);
+            }
+        placed.borderBegin.push_back(placed.border.size());
+    }
+    if (next != finestCount)
+        throw std::logic_error("placeTilesOnBase: the tiles number " + std::to_string(next) + " points of " +
+                               std::to_string(finestCount));
+    placed.refinedCount = finestCount;
+    placed.fallbackBegin = finestCount;
+    placed.halo = halo;
+    placed.surface = latticeSurface(placed);
+    table.halo = placed.halo;
+    table.refinedCount = placed.refinedCount;
+    table.fallbackBegin = placed.fallbackBegin;
+    table.side = std::move(placed.side);
+    table.gather = std::move(placed.gather);
+    table.gatherBegin = std::move(placed.gatherBegin);
+    table.output = std::move(placed.output);
+    table.border = std::move(placed.border);
+    table.borderBegin = std::move(placed.borderBegin);
+    table.canonical.clear();
+    table.surface = std::move(placed.surface);
+    return true;
+}
+
+namespace {
+
 // Per level from B + 1 to the finest (index k + 1 for level k's rows; the others empty):
 // whether the fallback needs the level's point, marked from the finest level back.
 std::vector<std::vector<std::uint8_t>> neededByFallback(const TiledTable& table, const PerLevelTable& rows,

@@ -52,6 +52,18 @@ struct TileFaces {
 std::vector<std::uint32_t> placeTiles(TiledTable& table, const TileBlocks& blocks, const Level* coarse, bool coarseSplits,
                                       std::uint32_t finestCount, TileFaces* faces = nullptr);
 
+// Where the blocks cover every face of level B (`base`) and every vertex of it lies on a face,
+// the tiles placed on level B itself, with no later level: each tile's inner points numbered
+// as placeTiles numbers them, its ring points named by the vertex or the edge of level B they
+// lie on (an edge's point by its place along the edge), so the same drawing positions as
+// placeTiles gives; then table.surface from the tiles' lattices, tile after tile, each
+// lattice's quads row by row (not by first drawn corner), and table.canonical left empty (the
+// drawing-only build, RefineOptions::canonicalOrder). Sets the tiles, halo, refinedCount
+// (finestCount) and fallbackBegin (the same) only when it can: false, `table` untouched,
+// where a block is missing, a vertex has no face, or two vertices of a ring share more than one
+// edge (their edge's points could not be told apart by name).
+bool placeTilesOnBase(TiledTable& table, const TileBlocks& blocks, const Level& base, std::uint32_t finestCount);
+
 // table.rows from `rows` (levels [0, B) whole; from B on, at least every row the fallback needs):
 // the rows from B on that the fallback needs, the last level's destinations as drawing
 // positions (without a tile: every row, `rows` itself). std::logic_error when a needed row is

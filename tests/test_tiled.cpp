@@ -11,6 +11,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -698,6 +699,16 @@ TEST(Tiled, RefineFacadeBuildsTheTiledForm) {
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
 }
 
+// The tiles of two tiled tables: sides, gathers, output ranges and border points.
+void expectSameTiles(const TiledTable& a, const TiledTable& b) {
+    EXPECT_EQ(a.side, b.side);
+    EXPECT_EQ(a.gatherBegin, b.gatherBegin);
+    EXPECT_EQ(a.gather, b.gather);
+    EXPECT_EQ(a.output, b.output);
+    EXPECT_EQ(a.borderBegin, b.borderBegin);
+    EXPECT_EQ(a.border, b.border);
+}
+
 // Every array of two tiled tables, compared whole.
 void expectSameTable(const TiledTable& a, const TiledTable& b) {
     EXPECT_EQ(std::tie(a.controlCount, a.refinedCount, a.baseLevel, a.doubleSteps, a.halo, a.fallbackBegin),
@@ -718,12 +729,7 @@ void expectSameTable(const TiledTable& a, const TiledTable& b) {
     }
     EXPECT_EQ(a.rows.destinations, b.rows.destinations);
     EXPECT_EQ(a.rows.indices, b.rows.indices);
-    EXPECT_EQ(a.side, b.side);
-    EXPECT_EQ(a.gatherBegin, b.gatherBegin);
-    EXPECT_EQ(a.gather, b.gather);
-    EXPECT_EQ(a.output, b.output);
-    EXPECT_EQ(a.borderBegin, b.borderBegin);
-    EXPECT_EQ(a.border, b.border);
+    expectSameTiles(a, b);
     EXPECT_EQ(a.canonical, b.canonical);
     EXPECT_EQ(a.surface.faceOffsets, b.surface.faceOffsets);
     EXPECT_EQ(a.surface.faceVerts, b.surface.faceVerts);
@@ -780,6 +786,101 @@ TEST(Tiled, TheLeanBuildMakesTheFullBuildsTable) {
         for (int t = 1; t <= 3; ++t) EXPECT_GT(tiles[boundary][t], 0u) << boundary << " " << t;
     EXPECT_GT(fallbackPoints, 0u);  // tiles beside fallback rows, not only all-tile tables
     EXPECT_GT(wholeTiled, 0u);      // and tables all tiles, whose lean build ends on level N - 2
+}
+
+// A quad with its corners turned to start at the least: faces compare as sets of cycles.
+std::vector<std::array<Index, 4>> cycles(const SurfaceTable& surface) {
+    std::vector<std::array<Index, 4>> quads;
+    for (std::size_t f = 0; f + 1 < surface.faceOffsets.size(); ++f) {
+        const Index* q = surface.faceVerts.data() + surface.faceOffsets[f];
+        const std::size_t least = std::size_t(std::min_element(q, q + 4) - q);
+        quads.push_back({q[least], q[(least + 1) % 4], q[(least + 2) % 4], q[(least + 3) % 4]});
+    }
+    std::sort(quads.begin(), quads.end());
+    return quads;
+}
+
+// The drawing-only build (RefineOptions::canonicalOrder false) places the tiles on level B
+// where they cover the mesh (a torus at every double step count): the lean build's tiles,
+// drawing positions and level sizes, the same faces (tile after tile instead of by first drawn
+// corner), the same positions bit for bit and normals within float rounding, on one thread
+// and two; no canonical order (toCanonical refuses), and no level after B made (onLevel
+// reports the steps not taken with 0 s). Where tiles do not cover the mesh (Spot, a torus with
+// tiles turned off) it is the lean build, canonical order and all.
+TEST(Tiled, TheDrawingOnlyBuildPlacesTheTilesOnLevelB) {
+    std::size_t drawingOnly[4] = {};  // per double step count
+    for (const auto& [nu, nv] : {std::pair<Index, Index>{30, 20}, {48, 32}})
+        for (int levels = 2; levels <= 6; ++levels) {
+            SCOPED_TRACE("torus " + std::to_string(nu) + " x " + std::to_string(nv) + " levels " + std::to_string(levels));
+            const test::Loaded loaded = loadTorus(nu, nv);
+            RefineOptions options = test::tiledOptions(levels, Boundary::Paper, Rules::Paper, TileSides::Every);
+            options.perLevel = false;
+            const Refinement lean = refine(loaded.mesh, loaded.checked.connectivity, options);
+            options.canonicalOrder = false;
+            std::vector<std::pair<int, double>> reported;
+            options.onLevel = [&](int level, double seconds) { reported.emplace_back(level, seconds); };
+            const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
+            const TiledTable &a = r.tiled, &b = lean.tiled;
+            if (b.fallbackBegin != b.refinedCount) {  // tiles leave points to the fallback: the lean build
+                EXPECT_EQ(a.canonical.size(), a.refinedCount);
+                expectSameTable(a, b);
+                continue;
+            }
+            EXPECT_TRUE(a.canonical.empty());
+            EXPECT_EQ(std::tie(a.controlCount, a.refinedCount, a.baseLevel, a.doubleSteps, a.halo, a.fallbackBegin),
+                      std::tie(b.controlCount, b.refinedCount, b.baseLevel, b.doubleSteps, b.halo, b.fallbackBegin));
+            expectSameTiles(a, b);
+            ASSERT_EQ(a.rows.levels.size(), b.rows.levels.size());
+            for (std::size_t k = 0; k < a.rows.levels.size(); ++k)
+                EXPECT_EQ(std::tie(a.rows.levels[k].sourceCount, a.rows.levels[k].destinationCount),
+                          std::tie(b.rows.levels[k].sourceCount, b.rows.levels[k].destinationCount));
+            EXPECT_EQ(a.rows.indices, b.rows.indices);
+            EXPECT_EQ(a.surface.faceOffsets, b.surface.faceOffsets);
+            EXPECT_EQ(cycles(a.surface), cycles(b.surface));
+            // Each vertex's faces as buildSurfaceTable lists them (in face order).
+            Faces faces;
+            faces.vertexCount = a.refinedCount;
+            faces.offsets = a.surface.faceOffsets;
+            faces.verts = a.surface.faceVerts;
+            const SurfaceTable listed = buildSurfaceTable(std::move(faces));
+            EXPECT_EQ(a.surface.vertexCount, listed.vertexCount);
+            EXPECT_EQ(a.surface.vertexOffsets, listed.vertexOffsets);
+            EXPECT_EQ(a.surface.vertexFaces, listed.vertexFaces);
+            // Only level B's topology was made: every later step reported as not taken.
+            ASSERT_EQ(reported.size(), std::size_t(levels));
+            for (int level = 1; level <= levels; ++level) {
+                EXPECT_EQ(reported[std::size_t(level - 1)].first, level);
+                if (level > int(a.baseLevel)) {
+                    EXPECT_EQ(reported[std::size_t(level - 1)].second, 0.0);
+                }
+            }
+            const std::vector<float> control(loaded.mesh.positions.begin(), loaded.mesh.positions.end());
+            for (int threads : {1, 2}) {
+                CpuEvaluator<float> drawn(a, 3, threads), expected(b, 3, threads);
+                std::vector<float> positions(3 * std::size_t(a.refinedCount)), normals(positions.size());
+                std::vector<float> expectedPositions(positions.size()), expectedNormals(positions.size());
+                drawn.evaluate(control, positions, normals);
+                expected.evaluate(control, expectedPositions, expectedNormals);
+                EXPECT_EQ(positions, expectedPositions);
+                for (std::size_t i = 0; i < normals.size(); ++i) ASSERT_NEAR(normals[i], expectedNormals[i], 1e-6) << i;
+                std::vector<float> canonical(positions.size());
+                EXPECT_THROW(toCanonical<float>(a, positions, canonical, 3), std::invalid_argument);
+            }
+            ++drawingOnly[a.doubleSteps];
+        }
+    for (int t = 1; t <= 3; ++t) EXPECT_GT(drawingOnly[t], 0u) << t;
+    // Where the tiles do not cover the mesh: the lean build itself.
+    for (const std::string& path : {test::dataPath("spot_control_mesh.obj"), std::string()}) {
+        const test::Loaded loaded = path.empty() ? loadTorus(30, 20) : test::load(path);
+        RefineOptions options = test::tiledOptions(path.empty() ? 4 : 7, Boundary::Paper, Rules::Paper,
+                                                   path.empty() ? TileSides::None : TileSides::Cheapest);
+        options.perLevel = false;
+        const Refinement lean = refine(loaded.mesh, loaded.checked.connectivity, options);
+        options.canonicalOrder = false;
+        const Refinement r = refine(loaded.mesh, loaded.checked.connectivity, options);
+        EXPECT_EQ(r.tiled.canonical.size(), r.tiled.refinedCount);
+        expectSameTable(r.tiled, lean.tiled);
+    }
 }
 
 // Without tiles (TileSides::None, psub play's third tiled candidate on several threads): the plan's

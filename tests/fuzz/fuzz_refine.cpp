@@ -4,7 +4,8 @@
 // one, a tile on every regular block, also with its normals in the tile pass); the counts must
 // match the closed form and the table forms must agree (the tiled one once put back in
 // canonical order); the tiled form's lean build (no per-level table) must make the same table;
-// the per-level table ordered by region (2 or 3 regions) must give the same bits; the tiled
+// so must its drawing-only build (no canonical order) but for what it leaves out; the per-level
+// table ordered by region (2 or 3 regions) must give the same bits; the tiled
 // form without a tile (TileSides::None, lean) has none and agrees too; within the numeric-range
 // policy the values are finite.
 #include "psub/evaluator.h"
@@ -41,6 +42,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 lean.gather != r.tiled.gather || lean.border != r.tiled.border ||
                 lean.surface.faceVerts != r.tiled.surface.faceVerts || lean.fallbackBegin != r.tiled.fallbackBegin)
                 std::abort();
+            // Without the canonical order: the same tiles and drawing positions; where it skipped
+            // the order (tiles cover the mesh) the same positions, else the lean table itself.
+            leanOptions.canonicalOrder = false;
+            const psub::TiledTable drawn = psub::refine(mesh, checked.connectivity, leanOptions).tiled;
+            if (drawn.gather != lean.gather || drawn.border != lean.border || drawn.output != lean.output ||
+                drawn.fallbackBegin != lean.fallbackBegin || drawn.refinedCount != lean.refinedCount ||
+                drawn.surface.faceOffsets != lean.surface.faceOffsets)
+                std::abort();
+            if (drawn.canonical.empty()) {
+                if (drawn.fallbackBegin != drawn.refinedCount) std::abort();
+                psub::CpuEvaluator<double> a(lean, 3, 1), b(drawn, 3, 1);
+                std::vector<double> x(3 * std::size_t(lean.refinedCount)), y(x.size());
+                a.evaluate(mesh.positions, x);
+                b.evaluate(mesh.positions, y);
+                if (x != y) std::abort();
+            } else if (drawn.canonical != lean.canonical || drawn.surface.faceVerts != lean.surface.faceVerts) {
+                std::abort();
+            }
         }
         psub::RefineOptions noTilesOptions = options;
         noTilesOptions.factorized = false;

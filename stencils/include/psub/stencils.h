@@ -143,6 +143,13 @@ struct RefineOptions {
     // vertexRowsFromFacePoints (fewer loads per frame); false keeps every row as the rules
     // write it (for what reads or changes the rules' rows: psub analyze's weight experiments).
     bool vertexRowsFromFacePoints = true;
+    // The tiled form's `canonical` (drawing position -> canonical index: toCanonical, `psub
+    // subdivide`). false, in the lean build, lets refine skip it where the tiles cover the mesh
+    // whole (no face-varying channel): the tiles are then placed on level B and no level after B
+    // is made (the drawing-only build, docs/tiled.md "The lean build"): the same drawing
+    // positions and evaluation, the surface's faces tile after tile, `canonical` empty. Elsewhere
+    // it is made anyway.
+    bool canonicalOrder = true;
 };
 
 // Everything the per-frame loop needs, and nothing of the topology.
