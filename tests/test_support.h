@@ -123,6 +123,19 @@ inline Loaded loadTorus(Index nu, Index nv) {
     return loaded;
 }
 
+// loadTorus(n, n) written to `path` as an OBJ file (for the command-line tests).
+inline void writeTorusObj(const std::string& path, Index n) {
+    const Loaded torus = loadTorus(n, n);
+    std::ofstream out(path);
+    for (std::size_t v = 0; v < torus.mesh.positions.size(); v += 3)
+        out << "v " << torus.mesh.positions[v] << ' ' << torus.mesh.positions[v + 1] << ' ' << torus.mesh.positions[v + 2] << '\n';
+    for (Index f = 0; f < torus.mesh.faces.faceCount(); ++f) {
+        out << 'f';
+        for (Index v : torus.mesh.faces.face(f)) out << ' ' << v + 1;
+        out << '\n';
+    }
+}
+
 // Frame `frame` of a twisting wave over control points `positions` (xyz triples), `width`
 // values per point: xyz, then linear primvars of them (the evaluators' changing frames).
 inline std::vector<float> animate(const std::vector<double>& positions, std::uint32_t width, int frame) {
